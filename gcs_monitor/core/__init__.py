@@ -1,0 +1,1 @@
+"""Shared, stateless foundations: constants, units, frames, atmosphere, types (numpy/scipy only)."""

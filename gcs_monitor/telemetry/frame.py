@@ -1,0 +1,74 @@
+"""The Frame: one fixed-rate snapshot per IMU sample, in SI units and NED/FRD frames.
+
+Slow inputs (air data, GPS, attitude) are held with their age; GPS ground velocity is linearly
+interpolated to the IMU time with a bounded, documented delay (see ``assembler.py``).
+A missing input is ``None`` or NaN with an explicit validity flag, never a silent zero.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from gcs_monitor.core.types import Vec, Vec3
+
+
+@dataclass(frozen=True, slots=True)
+class ImuSample:
+    """One IMU instance at one instant (HIGHRES_IMU)."""
+
+    t_us: int
+    instance: int
+    acc_frd_mps2: Vec3  # (3,) specific force, body FRD
+    omega_frd_radps: Vec3  # (3,) body rates, FRD
+
+
+@dataclass(slots=True)
+class Frame:
+    """Everything the estimators see at one IMU sample of the primary IMU.
+
+    Attributes
+    ----------
+    t_us : vehicle time of the primary IMU sample (int microseconds)
+    imu : per IMU instance, the latest sample (index = instance id); ``None`` where absent
+    euler_rad : (3,) [phi, theta, psi] from ATTITUDE, or None
+    gps_vel_ned_mps : (3,) GPS ground velocity, interpolated to ``t_us - gps_delay_us``, or None
+    gps_delay_us : how far behind ``t_us`` the interpolated GPS velocity is (0 for held data)
+    aoa_rad, cas_mps : (n,) per redundant instance; NaN where that instance has no valid data
+    aoa_age_s, cas_age_s : (n,) age of each instance's latest value
+    """
+
+    t_us: int
+    imu: list[ImuSample | None]
+    euler_rad: Vec3 | None = None
+    att_age_s: float = float("inf")
+    gps_vel_ned_mps: Vec3 | None = None
+    gps_age_s: float = float("inf")
+    gps_delay_us: int = 0
+    gps_new: bool = False  # a GPS sample arrived since the previous frame
+    lat_rad: float = float("nan")
+    lon_rad: float = float("nan")
+    alt_msl_m: float = float("nan")
+    aoa_rad: Vec = field(default_factory=lambda: np.full(3, np.nan))
+    aoa_age_s: Vec = field(default_factory=lambda: np.full(3, np.inf))
+    cas_mps: Vec = field(default_factory=lambda: np.full(3, np.nan))
+    cas_age_s: Vec = field(default_factory=lambda: np.full(3, np.inf))
+    air_new: bool = False  # new air data arrived since the previous frame
+    ssa_rad: float = float("nan")
+    baro_alt_m: float = float("nan")
+    climb_mps: float = float("nan")  # positive up
+    air_age_s: float = float("inf")
+    static_pressure_pa: float = float("nan")
+    oat_k: float = float("nan")
+    surf_cmd_rad: Vec | None = None
+    surf_pos_rad: Vec | None = None
+    rod_pos_m: Vec | None = None
+    surf_age_s: float = float("inf")
+
+    @property
+    def primary_imu(self) -> ImuSample | None:
+        for s in self.imu:
+            if s is not None:
+                return s
+        return None
