@@ -1,0 +1,60 @@
+"""Alarm events: what the FDI layer emits and every sink publishes (schema in docs/alarms.md)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import Enum
+
+from gcs_monitor.core.types import ChannelId
+
+
+class AlarmState(str, Enum):
+    RAISED = "raised"
+    UPDATED = "updated"
+    CLEARED = "cleared"
+
+
+class AlarmKind(str, Enum):
+    SENSOR_FAULT = "sensor_fault"
+    ACTUATOR_FAULT = "actuator_fault"
+    SET_LOST = "set_lost"  # every instance of a redundant set is faulty (Wan2018 Table I)
+    LINK = "link"  # link problems: never reported as a sensor fault
+    ESTIMATOR = "estimator"  # estimator numerics / unavailable inputs
+
+
+class FaultType(str, Enum):
+    UNKNOWN = "unknown"
+    BIAS = "bias"
+    DRIFT = "drift"
+    OSCILLATION = "oscillation"
+    STUCK = "stuck"
+    RUNAWAY = "runaway"
+    NOISE = "noise"
+    LINK = "link"
+
+
+@dataclass(frozen=True, slots=True)
+class AlarmEvent:
+    """One alarm transition (raised / updated / cleared) on one channel.
+
+    Attributes
+    ----------
+    t_us : vehicle time of the transition (int µs); sinks add wall time
+    channel : isolated channel (kind, instance, axis)
+    magnitude : estimated fault magnitude in the channel's SI unit (signed, NaN if unknown)
+    residual_rms : residual RMS J at the transition (Wan2018 eq. 18), SI
+    threshold : J_th used, SI
+    estimator : which estimator's residual raised it (``"voting"`` for the set-level reference)
+    """
+
+    t_us: int
+    channel: ChannelId
+    state: AlarmState
+    kind: AlarmKind
+    fault_type: FaultType
+    magnitude: float
+    residual_rms: float
+    threshold: float
+    estimator: str
+    message: str = ""
+    vehicle: int = 1
