@@ -58,3 +58,36 @@ class AlarmEvent:
     estimator: str
     message: str = ""
     vehicle: int = 1
+
+
+@dataclass(frozen=True, slots=True)
+class SetStatus:
+    """Per-sample state of one redundant set (triplex AoA, triplex CAS, IMU axes) for the sinks.
+
+    measured/rms/weights/faulty are (n,) per instance; fused is the adaptive weighted value
+    (Wan2018 eq. 19); configuration names the output configuration (Wan2018 Table I).
+    """
+
+    name: str  # e.g. "aoa", "cas"
+    t_us: int
+    measured: tuple[float, ...]
+    reference: float  # what residuals are taken against (model prediction or fused value)
+    fused: float
+    weights: tuple[float, ...]
+    rms: tuple[float, ...]
+    threshold: float
+    faulty: tuple[bool, ...]
+    configuration: str
+
+
+@dataclass(frozen=True, slots=True)
+class ChannelStatus:
+    """Per-sample state of one estimator channel (e.g. reconstructed accelerometer fault f_Ax)."""
+
+    channel: ChannelId
+    t_us: int
+    value: float  # the monitored signal (fault estimate or residual), SI
+    rms: float
+    threshold: float
+    faulty: bool
+    estimator: str
