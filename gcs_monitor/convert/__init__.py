@@ -1,0 +1,1 @@
+"""Converters from real flight-data formats to .tlog files that follow docs/telemetry.md."""

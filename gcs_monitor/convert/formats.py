@@ -1,0 +1,242 @@
+"""Readers for the real flight-data formats in shared/data/real, to SI/NED/FRD arrays.
+
+Every reader returns a :class:`Flight`: uniformly documented arrays, SI units, NED earth frame,
+FRD body frame, time in seconds. Frame and unit fixes follow shared/data/real/README.md:
+
+* Zipline launch CSVs (50 Hz): already NED/FRD SI. ``accel_body_mps2`` is specific force. The
+  estimator reset at t = 7.4-8.9 s (position/velocity jump) is masked: no GPS velocity is emitted
+  there (the monitor then holds/ages it). There is no lat/lon: the documented origin is the
+  Muhanga distribution centre (-2.0767, 29.7376), altitude 1,700 m, which only sets the GS-KM's
+  earth-rate and gravity terms.
+* OnSpeed/VN-300 CSV (50 Hz): VN-300 specific force (z down) and rates as IMU 0; OnSpeed's
+  internal IMU as IMU 1 (g -> m/s^2, deg/s -> rad/s, RollRate sign flipped: it is opposite to the
+  VN-300, corr -0.97). Attitude from the VN-300 Euler angles. GPS velocity from the raw 5 Hz GNSS
+  velocity, emitted only when it changes (it is held between updates in the file). IAS (kt) is
+  taken as CAS for AIRSPEED instance 0; AngleofAttack (deg) as vane 0.
+* ALFA CSVs (20 Hz grid, ROS FLU/ENU): FLU -> FRD is (x, -y, -z) for both specific force and
+  rates; ENU -> NED velocity is (y, x, -z); the orientation quaternion (x, y, z, w missing) is
+  completed with w = +sqrt(1 - x^2 - y^2 - z^2) and converted from ENU-FLU to NED-FRD Euler
+  angles; the sign of the missing w is chosen per row so that gravity agrees with the measured
+  specific force. Rows whose IMU is empty are skipped. No lat/lon: a documented placeholder near
+  Pittsburgh (40.44, -79.94), altitude 300 m.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from gcs_monitor.core.frames import dcm_from_quat, euler_from_dcm
+from gcs_monitor.core.types import Mat, Vec
+from gcs_monitor.core.units import DEG2RAD, FPM2MPS, FT2M, G2MPS2, HPA2PA, KT2MPS
+
+ZIPLINE_ORIGIN_DEG = (-2.0767, 29.7376)
+ZIPLINE_ALT_M = 1700.0
+ZIPLINE_RESET_MASK_S = (7.4, 8.9)
+ALFA_ORIGIN_DEG = (40.44, -79.94)
+ALFA_ALT_M = 300.0
+
+
+class ConvertError(ValueError):
+    """An input file does not have the format its reader expects."""
+
+
+@dataclass
+class Flight:
+    """A flight in SI arrays. ``n`` samples at the IMU rate; GPS arrays on their own times."""
+
+    name: str
+    fmt: str
+    t_s: Vec  # (n,)
+    acc_frd_mps2: list[Mat]  # per IMU instance, (n, 3)
+    omega_frd_radps: list[Mat]  # per IMU instance, (n, 3)
+    euler_rad: Mat  # (n, 3)
+    gps_t_s: Vec  # (m,)
+    gps_vel_ned_mps: Mat  # (m, 3)
+    lat_rad: Vec  # (m,)
+    lon_rad: Vec  # (m,)
+    alt_m: Vec  # (m,)
+    air_t_s: Vec = field(default_factory=lambda: np.zeros(0))
+    cas_mps: Vec = field(default_factory=lambda: np.zeros(0))
+    aoa_rad: Vec = field(default_factory=lambda: np.zeros(0))
+    baro_alt_m: Vec = field(default_factory=lambda: np.zeros(0))
+    climb_mps: Vec = field(default_factory=lambda: np.zeros(0))
+    static_pressure_pa: Vec = field(default_factory=lambda: np.zeros(0))
+    oat_k: Vec = field(default_factory=lambda: np.zeros(0))
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def duration_s(self) -> float:
+        return float(self.t_s[-1] - self.t_s[0]) if len(self.t_s) else 0.0
+
+
+def _read_csv(path: Path) -> tuple[list[str], list[list[str]]]:
+    with open(path, newline="") as fh:
+        rows = list(csv.reader(fh))
+    if not rows:
+        raise ConvertError(f"{path}: empty file")
+    return [h.strip() for h in rows[0]], rows[1:]
+
+
+def _columns(path: Path, header: list[str], rows: list[list[str]], names: list[str]) -> Mat:
+    missing = [n for n in names if n not in header]
+    if missing:
+        raise ConvertError(f"{path}: missing columns {missing}")
+    idx = [header.index(n) for n in names]
+    out = np.full((len(rows), len(names)), np.nan)
+    for r, row in enumerate(rows):
+        for c, i in enumerate(idx):
+            if i < len(row) and row[i].strip() != "":
+                try:
+                    out[r, c] = float(row[i])
+                except ValueError:
+                    pass
+    return out
+
+
+def read_zipline(path: Path) -> Flight:
+    header, rows = _read_csv(path)
+    cols = (["seconds_since_launch"]
+            + [f"velocity_ned_mps[{i}]" for i in range(3)]
+            + [f"accel_body_mps2[{i}]" for i in range(3)]
+            + [f"orientation_rad[{i}]" for i in range(3)]
+            + [f"angular_rate_body_radps[{i}]" for i in range(3)]
+            + [f"position_ned_m[{i}]" for i in range(3)])
+    a = _columns(path, header, rows, cols)
+    a = a[np.all(np.isfinite(a), axis=1)]
+    t = a[:, 0] - a[0, 0]
+    keep_gps = ~((a[:, 0] >= ZIPLINE_RESET_MASK_S[0]) & (a[:, 0] <= ZIPLINE_RESET_MASK_S[1]))
+    lat0, lon0 = (x * DEG2RAD for x in ZIPLINE_ORIGIN_DEG)
+    from gcs_monitor.core.constants import EARTH_RADIUS_M
+
+    north, east, down = a[:, 13], a[:, 14], a[:, 15]
+    lat = lat0 + north / EARTH_RADIUS_M
+    lon = lon0 + east / (EARTH_RADIUS_M * math.cos(lat0))
+    alt = ZIPLINE_ALT_M - down
+    return Flight(
+        name=path.stem, fmt="zipline", t_s=t,
+        acc_frd_mps2=[a[:, 4:7]], omega_frd_radps=[a[:, 10:13]], euler_rad=a[:, 7:10],
+        gps_t_s=t[keep_gps], gps_vel_ned_mps=a[keep_gps, 1:4],
+        lat_rad=lat[keep_gps], lon_rad=lon[keep_gps], alt_m=alt[keep_gps],
+        notes=[f"t0 = {a[0, 0]:.3f} s since launch; GPS velocity masked over "
+               f"{ZIPLINE_RESET_MASK_S} s since launch (estimator reset)"],
+    )
+
+
+def read_onspeed(path: Path) -> Flight:
+    header, rows = _read_csv(path)
+    names = ["timeStamp", "vnAccelFwd", "vnAccelLat", "vnAccelVert",
+             "vnAngularRateRoll", "vnAngularRatePitch", "vnAngularRateYaw",
+             "ForwardG", "LateralG", "VerticalG", "RollRate", "PitchRate", "YawRate",
+             "vnRoll", "vnPitch", "vnYaw", "vnGnssVelNedNorth", "vnGnssVelNedEast",
+             "vnGnssVelNedDown", "vnGnssLat", "vnGnssLon", "IAS", "AngleofAttack", "Palt",
+             "VSI", "PStatic", "OAT", "Altitude"]
+    a = _columns(path, header, rows, names)
+    a = a[np.isfinite(a[:, 0])]
+    c = {n: a[:, i] for i, n in enumerate(names)}
+    t = (c["timeStamp"] - c["timeStamp"][0]) / 1000.0
+    acc0 = np.column_stack([c["vnAccelFwd"], c["vnAccelLat"], c["vnAccelVert"]])
+    omg0 = np.column_stack([c["vnAngularRateRoll"], c["vnAngularRatePitch"],
+                            c["vnAngularRateYaw"]])
+    # OnSpeed IMU: +1 g level on VerticalG means specific force z (down) = -1 g.
+    acc1 = G2MPS2 * np.column_stack([c["ForwardG"], c["LateralG"], -c["VerticalG"]])
+    omg1 = DEG2RAD * np.column_stack([-c["RollRate"], c["PitchRate"], c["YawRate"]])
+    euler = DEG2RAD * np.column_stack([c["vnRoll"], c["vnPitch"], c["vnYaw"]])
+    gv = np.column_stack([c["vnGnssVelNedNorth"], c["vnGnssVelNedEast"], c["vnGnssVelNedDown"]])
+    changed = np.ones(len(t), dtype=bool)
+    changed[1:] = np.any(np.diff(gv, axis=0) != 0.0, axis=1)
+    alt = c["Altitude"] * FT2M
+    return Flight(
+        name=path.stem, fmt="onspeed", t_s=t, acc_frd_mps2=[acc0, acc1],
+        omega_frd_radps=[omg0, omg1], euler_rad=euler,
+        gps_t_s=t[changed], gps_vel_ned_mps=gv[changed],
+        lat_rad=c["vnGnssLat"][changed] * DEG2RAD, lon_rad=c["vnGnssLon"][changed] * DEG2RAD,
+        alt_m=alt[changed],
+        air_t_s=t, cas_mps=c["IAS"] * KT2MPS, aoa_rad=c["AngleofAttack"] * DEG2RAD,
+        baro_alt_m=c["Palt"] * FT2M, climb_mps=c["VSI"] * FPM2MPS,
+        static_pressure_pa=c["PStatic"] * HPA2PA, oat_k=c["OAT"] + 273.15,
+        notes=["IMU0 = VN-300 (rates quantised to 0.01 rad/s), IMU1 = OnSpeed internal "
+               "(RollRate sign flipped)", "IAS taken as CAS"],
+    )
+
+
+def _parse_ros_time(s: str) -> float:
+    from datetime import datetime, timezone
+
+    return datetime.strptime(s.strip(), "%Y-%m-%d %H:%M:%S.%f").replace(
+        tzinfo=timezone.utc).timestamp()
+
+
+def read_alfa(path: Path) -> Flight:
+    header, rows = _read_csv(path)
+    names = ["field.orientation.x", "field.orientation.y", "field.orientation.z",
+             "field.angular_velocity.x", "field.angular_velocity.y", "field.angular_velocity.z",
+             "field.linear_acceleration.x", "field.linear_acceleration.y",
+             "field.linear_acceleration.z", "field.twist.linear.x", "field.twist.linear.y",
+             "field.twist.linear.z"]
+    if "%time" not in header:
+        raise ConvertError(f"{path}: missing column %time")
+    a = _columns(path, header, rows, names)
+    ti = header.index("%time")
+    t_abs = np.array([_parse_ros_time(r[ti]) for r in rows])
+    ok = np.all(np.isfinite(a[:, 0:9]), axis=1) & np.all(np.isfinite(a[:, 9:12]), axis=1)
+    a, t_abs = a[ok], t_abs[ok]
+    if len(a) < 2:
+        raise ConvertError(f"{path}: fewer than two complete rows")
+    t = t_abs - t_abs[0]
+    flu2frd = np.array([1.0, -1.0, -1.0])
+    acc = a[:, 6:9] * flu2frd
+    omg = a[:, 3:6] * flu2frd
+    # ENU->NED and FLU->FRD: C_ned_frd = T @ C_enu_flu @ T' with T = [[0,1,0],[1,0,0],[0,0,-1]]
+    # and T' = diag(1,-1,-1).
+    T = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
+    Tb = np.diag(flu2frd)
+    euler = np.zeros((len(a), 3))
+    g_ned = np.array([0.0, 0.0, -9.81])  # specific force of an unaccelerated body, NED
+    for k in range(len(a)):
+        x, y, z = a[k, 0:3]
+        w = math.sqrt(max(0.0, 1.0 - x * x - y * y - z * z))
+        # The sign of w is not recoverable from (x, y, z): (w, v) and (-w, v) are different
+        # rotations. Take the one whose gravity direction agrees with the accelerometer.
+        best = None
+        for ws in (w, -w):
+            C = T @ dcm_from_quat(np.array([ws, x, y, z])) @ Tb
+            err = float(np.sum((C.T @ g_ned - acc[k]) ** 2))
+            if best is None or err < best[0]:
+                best = (err, C)
+        assert best is not None
+        euler[k] = euler_from_dcm(best[1])
+    vel = np.column_stack([a[:, 10], a[:, 9], -a[:, 11]])
+    n = len(t)
+    lat0, lon0 = (x * DEG2RAD for x in ALFA_ORIGIN_DEG)
+    return Flight(
+        name=path.stem, fmt="alfa", t_s=t, acc_frd_mps2=[acc], omega_frd_radps=[omg],
+        euler_rad=euler, gps_t_s=t, gps_vel_ned_mps=vel, lat_rad=np.full(n, lat0),
+        lon_rad=np.full(n, lon0), alt_m=np.full(n, ALFA_ALT_M),
+        notes=["ALFA derived 20 Hz grid, forward-filled; IMU effectively ~2.5 Hz (see data "
+               "README)", "placeholder lat/lon/alt"],
+    )
+
+
+def detect_format(path: Path) -> str:
+    if not Path(path).exists():
+        raise ConvertError(f"{path}: no such file")
+    if path.suffix.lower() == ".tlog":
+        return "tlog"
+    with open(path, newline="") as fh:
+        first = fh.readline()
+    if "seconds_since_launch" in first:
+        return "zipline"
+    if "vnAccelFwd" in first:
+        return "onspeed"
+    if "field.linear_acceleration" in first:
+        return "alfa"
+    raise ConvertError(f"{path}: unknown format (expected a Zipline, OnSpeed or ALFA CSV, or a "
+                       ".tlog)")
+
+
+READERS = {"zipline": read_zipline, "onspeed": read_onspeed, "alfa": read_alfa}
