@@ -1,0 +1,196 @@
+"""Strict TOML loading into frozen dataclasses.
+
+Keys carry their unit (``threshold_deg``, ``gps_delay_s``); values are converted to SI here, once.
+Unknown keys, wrong types and out-of-range values stop with a message naming the file and key.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import tomllib
+import typing
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from gcs_monitor.core.units import DEG2RAD, KT2MPS
+
+
+class ConfigError(ValueError):
+    """Invalid monitor configuration; the message names the file, the key and what is expected."""
+
+
+@dataclass(frozen=True, slots=True)
+class TelemetryConfig:
+    gps_delay_s: float = 0.1  # interpolation delay D (one GPS period at 10 Hz), Lu2016 sec. 5
+    stale_after_s: float = 0.5  # an input older than this is invalid
+    primary_imu: int = 0
+
+
+@dataclass(frozen=True, slots=True)
+class SetConfig:
+    """One redundant set's FDI parameters (Wan2018 sec. III-A)."""
+
+    threshold: float  # J_th, SI
+    n_eval: int = 10  # N_eval, Wan2018
+    n_detect: int = 5  # n_D of the last N_eval samples over threshold
+    clear_ratio: float = 0.5
+    n_clear: int = 200
+    latch: bool = True
+
+
+@dataclass(frozen=True, slots=True)
+class FdiConfig:
+    aoa: SetConfig = field(default_factory=lambda: SetConfig(threshold=1.0 * DEG2RAD))
+    cas: SetConfig = field(default_factory=lambda: SetConfig(threshold=4.0 * KT2MPS))
+    acc: SetConfig = field(default_factory=lambda: SetConfig(threshold=0.5, n_eval=50,
+                                                             n_detect=40, latch=False))
+    gyro: SetConfig = field(default_factory=lambda: SetConfig(threshold=0.5 * DEG2RAD, n_eval=50,
+                                                              n_detect=40, latch=False))
+
+
+@dataclass(frozen=True, slots=True)
+class EstimatorsConfig:
+    imu_ts: bool = True
+    imu_hosm: bool = False
+    airdata: str = "cmhe"  # "cmhe" | "umhe" | "ekf" | "none"
+
+
+@dataclass(frozen=True, slots=True)
+class SinksConfig:
+    rerun_rate_hz: float = 20.0
+    zenoh: bool = False
+    zenoh_listen: tuple[str, ...] = ("tcp/127.0.0.1:7447",)
+    zenoh_connect: tuple[str, ...] = ()
+    estimate_rate_hz: float = 5.0
+    queue_size: int = 10_000
+
+
+@dataclass(frozen=True, slots=True)
+class MonitorConfig:
+    telemetry: TelemetryConfig = field(default_factory=TelemetryConfig)
+    fdi: FdiConfig = field(default_factory=FdiConfig)
+    estimators: EstimatorsConfig = field(default_factory=EstimatorsConfig)
+    sinks: SinksConfig = field(default_factory=SinksConfig)
+
+
+_SET_UNITS = {"aoa": "deg", "cas": "kts", "acc": "mps2", "gyro": "degps"}
+_AIRDATA = ("cmhe", "umhe", "ekf", "none")
+
+
+def _build(cls: type, data: dict[str, Any], where: str, src: str) -> Any:
+    if not isinstance(data, dict):
+        raise ConfigError(f"{src}: [{where}] must be a table")
+    hints = typing.get_type_hints(cls)
+    names = {f.name for f in dataclasses.fields(cls)}
+    kwargs: dict[str, Any] = {}
+    for key, value in data.items():
+        if key not in names:
+            raise ConfigError(f"{src}: unknown key '{where}.{key}'; expected one of "
+                              f"{sorted(names)}")
+        kwargs[key] = _coerce(hints[key], value, f"{where}.{key}", src)
+    return cls(**kwargs)
+
+
+def _coerce(tp: Any, value: Any, key: str, src: str) -> Any:
+    origin = typing.get_origin(tp)
+    args = typing.get_args(tp)
+    if args and type(None) in args and origin is not tuple:  # X | None
+        (inner,) = [a for a in args if a is not type(None)]
+        return _coerce(inner, value, key, src)
+    if tp is bool:
+        if not isinstance(value, bool):
+            raise ConfigError(f"{src}: '{key}' must be true or false, got {value!r}")
+        return value
+    if tp is int:
+        if isinstance(value, bool) or not isinstance(value, int) or value <= 0:
+            raise ConfigError(f"{src}: '{key}' must be a positive integer, got {value!r}")
+        return value
+    if tp is float:
+        if isinstance(value, bool) or not isinstance(value, int | float) or value < 0:
+            raise ConfigError(f"{src}: '{key}' must be a non-negative number, got {value!r}")
+        return float(value)
+    if tp is str:
+        if not isinstance(value, str):
+            raise ConfigError(f"{src}: '{key}' must be a string, got {value!r}")
+        return value
+    if origin is tuple:
+        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+            raise ConfigError(f"{src}: '{key}' must be a list of strings, got {value!r}")
+        return tuple(value)
+    raise ConfigError(f"{src}: '{key}' has an unsupported type")
+
+
+def _set_config(name: str, data: dict[str, Any], src: str) -> SetConfig:
+    if not isinstance(data, dict):
+        raise ConfigError(f"{src}: [fdi.{name}] must be a table")
+    unit = _SET_UNITS[name]
+    thr_key = f"threshold_{unit}"
+    data = dict(data)
+    for k in list(data):
+        if k.startswith("threshold") and k != thr_key:
+            raise ConfigError(f"{src}: '{k}' in [fdi.{name}]: the threshold of this set is given "
+                              f"as '{thr_key}'")
+    default = getattr(FdiConfig(), name)
+    threshold = default.threshold
+    if thr_key in data:
+        raw = data.pop(thr_key)
+        if isinstance(raw, bool) or not isinstance(raw, int | float) or raw <= 0:
+            raise ConfigError(f"{src}: 'fdi.{name}.{thr_key}' must be a positive number")
+        factor = {"deg": DEG2RAD, "kts": KT2MPS, "mps2": 1.0, "degps": DEG2RAD}[unit]
+        threshold = float(raw) * factor
+    partial = _build(_SetPartial, data, f"fdi.{name}", src)
+    cfg = SetConfig(threshold=threshold, n_eval=partial.n_eval or default.n_eval,
+                    n_detect=partial.n_detect or default.n_detect,
+                    clear_ratio=default.clear_ratio if partial.clear_ratio is None
+                    else partial.clear_ratio,
+                    n_clear=partial.n_clear or default.n_clear,
+                    latch=default.latch if partial.latch is None else partial.latch)
+    if cfg.n_detect > cfg.n_eval:
+        raise ConfigError(f"{src}: 'fdi.{name}.n_detect' ({cfg.n_detect}) must not exceed "
+                          f"n_eval ({cfg.n_eval})")
+    return cfg
+
+
+@dataclass(frozen=True, slots=True)
+class _SetPartial:
+    n_eval: int = 0
+    n_detect: int = 0
+    clear_ratio: float | None = None
+    n_clear: int = 0
+    latch: bool | None = None
+
+
+def load_config(path: Path | None = None) -> MonitorConfig:
+    """Load a monitor TOML file; ``None`` gives the defaults (the simulated airframes)."""
+    if path is None:
+        return MonitorConfig()
+    src = str(path)
+    try:
+        with open(path, "rb") as fh:
+            data = tomllib.load(fh)
+    except FileNotFoundError:
+        raise ConfigError(f"{src}: no such config file") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{src}: not valid TOML: {exc}") from None
+    allowed = {"telemetry", "fdi", "estimators", "sinks"}
+    for key in data:
+        if key not in allowed:
+            raise ConfigError(f"{src}: unknown section [{key}]; expected one of {sorted(allowed)}")
+    tel = _build(TelemetryConfig, data.get("telemetry", {}), "telemetry", src)
+    est = _build(EstimatorsConfig, data.get("estimators", {}), "estimators", src)
+    if est.airdata not in _AIRDATA:
+        raise ConfigError(f"{src}: 'estimators.airdata' must be one of {_AIRDATA}, got "
+                          f"{est.airdata!r}")
+    sinks = _build(SinksConfig, data.get("sinks", {}), "sinks", src)
+    fdi_data = data.get("fdi", {})
+    if not isinstance(fdi_data, dict):
+        raise ConfigError(f"{src}: [fdi] must be a table")
+    sets = {}
+    for key, value in fdi_data.items():
+        if key not in _SET_UNITS:
+            raise ConfigError(f"{src}: unknown key 'fdi.{key}'; expected one of "
+                              f"{sorted(_SET_UNITS)}")
+        sets[key] = _set_config(key, value, src)
+    return MonitorConfig(telemetry=tel, fdi=dataclasses.replace(FdiConfig(), **sets),
+                         estimators=est, sinks=sinks)

@@ -1,0 +1,47 @@
+"""Monitor config: defaults, unit conversion at load, and one focused test per validation rule."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from gcs_monitor.config import ConfigError, load_config
+
+
+def _write(tmp_path, text):
+    p = tmp_path / "monitor.toml"
+    p.write_text(text)
+    return p
+
+
+def test_defaults_run_without_a_file():
+    c = load_config(None)
+    assert c.fdi.aoa.n_eval == 10  # Wan2018: N_eval = 10
+    assert c.estimators.airdata == "cmhe"
+
+
+def test_units_converted_once(tmp_path):
+    c = load_config(_write(tmp_path, "[fdi.aoa]\nthreshold_deg = 2.0\n[fdi.cas]\nthreshold_kts = 10\n"))
+    assert c.fdi.aoa.threshold == pytest.approx(math.radians(2.0), rel=1e-12)
+    assert c.fdi.cas.threshold == pytest.approx(10 * 1852 / 3600, rel=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ("[nope]\n", r"unknown section \[nope\]"),
+        ("[sinks]\nrerun_hz = 3\n", r"unknown key 'sinks.rerun_hz'"),
+        ("[fdi.aoa]\nthreshold_kts = 3\n", r"given as 'threshold_deg'"),
+        ("[fdi.aoa]\nn_detect = 11\n", r"must not exceed n_eval"),
+        ("[estimators]\nairdata = 'kalman'\n", r"must be one of"),
+        ("[telemetry]\ngps_delay_s = 'x'\n", r"must be a non-negative number"),
+        ("[fdi]\nbaro = {}\n", r"unknown key 'fdi.baro'"),
+        ("x = [", r"not valid TOML"),
+    ],
+)
+def test_invalid_config_names_file_and_key(tmp_path, text, match):
+    p = _write(tmp_path, text)
+    with pytest.raises(ConfigError, match=match) as ei:
+        load_config(p)
+    assert str(p) in str(ei.value)
