@@ -91,3 +91,7 @@ class ChannelStatus:
     threshold: float
     faulty: bool
     estimator: str
+
+
+SET_INSTANCE = -1
+"""ChannelId.instance used for set-level alarms (SET_LOST) of a redundant set."""

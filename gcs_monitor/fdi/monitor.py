@@ -1,0 +1,380 @@
+"""Per-set and per-channel FDI monitors (Wan2018 sec. III-A, Steps 1-2).
+
+:class:`RedundantSetMonitor` watches a redundant set (triplex AoA, triplex CAS, IMU
+instances of one axis): residuals against a model reference (Wan2018 eq. 17) or, without
+one, against the set's own consensus (rules and limits in :mod:`gcs_monitor.fdi.isolation`),
+residual RMS (eq. 18), n_D-of-N_eval confirmation, adaptive weighted fusion (eq. 19) and
+the output configuration (Table I), with alarm transitions per instance and SET_LOST for
+the set.
+
+:class:`ChannelMonitor` watches one scalar estimator output (e.g. a reconstructed
+accelerometer fault) with the same RMS / threshold / confirmation chain.
+
+Both are deterministic: no clocks, no I/O; time is the vehicle's ``t_us``.  Per-sample
+work uses Python floats and lists (faster than numpy for n = 3); classification (numpy)
+runs only when an alarm is raised and every ``reclassify_every_n`` samples while active.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from gcs_monitor.core.types import ChannelId
+from gcs_monitor.fdi.alarms import AlarmParams, AlarmStateMachine
+from gcs_monitor.fdi.classify import ClassifierParams, classify_residual
+from gcs_monitor.fdi.confirmation import Confirmation, ConfirmationParams
+from gcs_monitor.fdi.events import (
+    SET_INSTANCE,
+    AlarmEvent,
+    AlarmKind,
+    ChannelStatus,
+    FaultType,
+    SetStatus,
+)
+from gcs_monitor.fdi.isolation import consensus_residuals
+from gcs_monitor.fdi.residuals import ResidualRms, RmsWindowParams
+from gcs_monitor.fdi.voting import SetConfiguration, adaptive_weights, rms_floor_from_noise
+
+
+@dataclass(frozen=True, slots=True)
+class SetMonitorParams:
+    """Parameters of one redundant-set monitor.
+
+    threshold : J_th, SI (Wan2018 sec. VI-B: 2.9 deg for AoA, 12 kt for CAS, set from the
+        worst fault-free residual RMS of its estimator; without a model reference the
+        residual is a sensor-to-sensor difference and J_th scales with the sensor noise)
+    noise_sigma : 1-sigma sensor noise, SI: J floor in eq. 19 and classifier noise level
+    runaway_rate_per_s : drift/runaway boundary for the classifier, SI/s
+    dt_s : nominal sample interval (classification time axis), s
+    history_n : residual samples kept per instance for classification
+    reclassify_every_n : samples between two reclassifications of an active alarm
+    """
+
+    threshold: float
+    noise_sigma: float
+    runaway_rate_per_s: float
+    dt_s: float = 0.01
+    rms: RmsWindowParams = field(default_factory=RmsWindowParams)
+    confirmation: ConfirmationParams = field(default_factory=ConfirmationParams)
+    alarm: AlarmParams = field(default_factory=AlarmParams)
+    history_n: int = 200
+    reclassify_every_n: int = 50
+
+    def __post_init__(self) -> None:
+        if not self.threshold > 0.0:
+            raise ValueError(f"threshold must be > 0, got {self.threshold}")
+        if self.history_n < 4:
+            raise ValueError(f"history_n must be >= 4, got {self.history_n}")
+
+
+class _History:
+    """Ring buffer of the last ``n`` (residual, measurement) pairs of one instance."""
+
+    __slots__ = ("r", "m", "idx", "count", "n")
+
+    def __init__(self, n: int) -> None:
+        self.n = n
+        self.r = [0.0] * n
+        self.m = [0.0] * n
+        self.idx = 0
+        self.count = 0
+
+    def push(self, r: float, m: float) -> None:
+        i = self.idx
+        self.r[i] = r
+        self.m[i] = m
+        i += 1
+        self.idx = 0 if i == self.n else i
+        if self.count < self.n:
+            self.count += 1
+
+    def ordered(self) -> tuple[list[float], list[float]]:
+        if self.count < self.n:
+            return self.r[: self.count], self.m[: self.count]
+        i = self.idx
+        return self.r[i:] + self.r[:i], self.m[i:] + self.m[:i]
+
+
+def _describe(hist: _History, cp: ClassifierParams, dt_s: float) -> tuple[FaultType, float, str]:
+    r, m = hist.ordered()
+    if len(r) < 4:
+        return FaultType.UNKNOWN, r[-1] if r else math.nan, ""
+    c = classify_residual(np.asarray(r), dt_s, cp, measured=np.asarray(m))
+    msg = f"{c.fault_type.value} {c.magnitude:.4g}"
+    if math.isfinite(c.frequency_hz):
+        msg += f" at {c.frequency_hz:.3g} Hz"
+    elif c.fault_type in (FaultType.DRIFT, FaultType.RUNAWAY):
+        msg += f" rate {c.rate_per_s:.4g}/s"
+    return c.fault_type, c.magnitude, msg
+
+
+class RedundantSetMonitor:
+    """FDI of one redundant set (Wan2018 sec. III-A Steps 1-2 and Table I).
+
+    Parameters
+    ----------
+    name : set name, also the ChannelId kind of its instances (``"aoa"``, ``"cas"``)
+    n : number of instances
+    params : thresholds and windows
+    estimator : name put in alarm events; ``"voting"`` when residuals are set-internal,
+        the model estimator's name when a reference is supplied
+    vehicle : MAVLink sysid stamped on events
+
+    Instances are ``ChannelId(name, i)`` for i in 0..n-1; SET_LOST alarms are raised on
+    ``ChannelId(name, SET_INSTANCE)``.
+    """
+
+    def __init__(
+        self,
+        name: str,
+        n: int,
+        params: SetMonitorParams,
+        *,
+        estimator: str = "voting",
+        vehicle: int = 1,
+        axis: str = "",
+    ) -> None:
+        if n < 1:
+            raise ValueError(f"a redundant set needs >= 1 instance, got {n}")
+        self.name = name
+        self.n = n
+        self.p = params
+        self.estimator = estimator
+        self._floor = rms_floor_from_noise(params.noise_sigma)
+        self._cp = ClassifierParams(noise_sigma=params.noise_sigma,
+                                    runaway_rate_per_s=params.runaway_rate_per_s)
+        self._rms = [ResidualRms(params.rms) for _ in range(n)]
+        self._conf = [Confirmation(params.confirmation) for _ in range(n)]
+        self._hist = [_History(params.history_n) for _ in range(n)]
+        self._alarm = [
+            AlarmStateMachine(ChannelId(name, i, axis), AlarmKind.SENSOR_FAULT, estimator,
+                              params=params.alarm, vehicle=vehicle)
+            for i in range(n)
+        ]
+        self._set_alarm = AlarmStateMachine(ChannelId(name, SET_INSTANCE, axis), AlarmKind.SET_LOST,
+                                            estimator, params=params.alarm, vehicle=vehicle)
+        self._J = [0.0] * n
+        self._faulty = [False] * n
+        self._since_class = [0] * n
+        self._range = range(n)
+        self._n_active = 0
+        self._labels: dict[tuple[int, bool, bool], str] = {}
+
+    @property
+    def faulty(self) -> tuple[bool, ...]:
+        return tuple(self._faulty)
+
+    def step(
+        self,
+        t_us: int,
+        measured: np.ndarray | Sequence[float],
+        valid: np.ndarray | Sequence[bool],
+        reference: float | None = None,
+    ) -> tuple[SetStatus, list[AlarmEvent]]:
+        """Process one sample of the set.
+
+        Parameters
+        ----------
+        t_us : vehicle time, µs
+        measured : (n,) measurement per instance, SI (NaN allowed where invalid)
+        valid : (n,) instance delivered a fresh, valid value
+        reference : model prediction of the measured quantity (Wan2018 eq. 17), SI, or
+            None to use the set's own consensus (:mod:`gcs_monitor.fdi.isolation`)
+        """
+        m = measured.tolist() if isinstance(measured, np.ndarray) else list(measured)
+        vl = valid.tolist() if isinstance(valid, np.ndarray) else list(valid)
+        rng = self._range
+        faulty = self._faulty
+        usable = [v and x == x for v, x in zip(vl, m, strict=True)]
+        has_ref = reference is not None and reference == reference
+        if has_ref:
+            ref = float(reference)  # type: ignore[arg-type]
+            r = [x - ref if u else math.nan for x, u in zip(m, usable, strict=True)]
+        else:
+            healthy = [u and not f for u, f in zip(usable, faulty, strict=True)]
+            ref, r = consensus_residuals(m, usable, healthy)
+
+        th = self.p.threshold
+        J = self._J
+        rms = self._rms
+        conf = self._conf
+        hist = self._hist
+        changed = False
+        for i in rng:
+            ri = r[i]
+            if ri == ri:
+                j = rms[i].update(ri)
+                J[i] = j
+                hist[i].push(ri, m[i])
+                if conf[i].update(j, th) != faulty[i]:
+                    faulty[i] = not faulty[i]
+                    changed = True
+
+        eligible = [u and not f for u, f in zip(usable, faulty, strict=True)]
+        weights = adaptive_weights(J, eligible, th, self._floor)
+        n_healthy = sum(eligible)
+        all_faulty = all(faulty)
+        if n_healthy:
+            fused = 0.0
+            for w, x in zip(weights, m, strict=True):
+                if w:
+                    fused += w * x
+        elif all_faulty and has_ref:
+            fused = ref  # Table I: the set is dropped, the model estimate is the virtual sensor
+        else:
+            fused = math.nan
+
+        events: list[AlarmEvent] = []
+        if changed or self._n_active:
+            events = self._alarm_step(t_us, faulty, J, th, has_ref, all_faulty)
+
+        label = self._labels.get((n_healthy, all_faulty, has_ref))
+        if label is None:
+            label = SetConfiguration(n_healthy, self.n, all_faulty, has_ref).label
+            self._labels[(n_healthy, all_faulty, has_ref)] = label
+        status = SetStatus(name=self.name, t_us=t_us, measured=tuple(m), reference=ref,
+                           fused=fused, weights=tuple(weights), rms=tuple(J), threshold=th,
+                           faulty=tuple(faulty), configuration=label)
+        return status, events
+
+    def _alarm_step(self, t_us: int, faulty: list[bool], J: list[float], th: float,
+                    has_ref: bool, all_faulty: bool) -> list[AlarmEvent]:
+        """Alarm transitions; runs only while some instance is faulty or alarmed."""
+        events: list[AlarmEvent] = []
+        for i in self._range:
+            sm = self._alarm[i]
+            if faulty[i]:
+                self._since_class[i] += 1
+                if not sm.active or self._since_class[i] >= self.p.reclassify_every_n:
+                    self._since_class[i] = 0
+                    ft, mag, msg = _describe(self._hist[i], self._cp, self.p.dt_s)
+                    events += sm.step(t_us, True, fault_type=ft, magnitude=mag, rms=J[i],
+                                      threshold=th, message=msg)
+            elif sm.active:
+                events += sm.step(t_us, False, rms=J[i], threshold=th)
+        if all_faulty != self._set_alarm.active:
+            msg = ("all instances faulty: virtual sensor (model estimate)" if has_ref
+                   else "all instances faulty, no model reference: no valid output")
+            events += self._set_alarm.step(t_us, all_faulty, fault_type=FaultType.UNKNOWN,
+                                           magnitude=math.nan, rms=max(J), threshold=th,
+                                           message=msg if all_faulty else "")
+        self._n_active = sum(sm.active for sm in self._alarm) + self._set_alarm.active
+        return events
+
+
+@dataclass(frozen=True, slots=True)
+class ChannelMonitorParams:
+    """Parameters of one estimator-channel monitor (threshold from :func:`calibrate`).
+
+    Confirmation does not latch by default: a reconstructed fault can return to zero.
+    """
+
+    threshold: float
+    noise_sigma: float
+    runaway_rate_per_s: float
+    dt_s: float = 0.01
+    rms: RmsWindowParams = field(default_factory=RmsWindowParams)
+    confirmation: ConfirmationParams = field(
+        default_factory=lambda: ConfirmationParams(latch=False))
+    alarm: AlarmParams = field(default_factory=AlarmParams)
+    history_n: int = 200
+    reclassify_every_n: int = 50
+
+
+class ChannelMonitor:
+    """RMS window + threshold + confirmation + alarm on one scalar estimator output.
+
+    The value is already a residual or a reconstructed fault (zero when healthy), so it is
+    windowed directly (Wan2018 eq. 18 with r = value).
+    """
+
+    def __init__(
+        self,
+        channel: ChannelId,
+        params: ChannelMonitorParams,
+        *,
+        estimator: str,
+        kind: AlarmKind = AlarmKind.SENSOR_FAULT,
+        vehicle: int = 1,
+    ) -> None:
+        self.channel = channel
+        self.p = params
+        self.estimator = estimator
+        self._cp = ClassifierParams(noise_sigma=params.noise_sigma,
+                                    runaway_rate_per_s=params.runaway_rate_per_s)
+        self._rms = ResidualRms(params.rms)
+        self._conf = Confirmation(params.confirmation)
+        self._hist = _History(params.history_n)
+        self._alarm = AlarmStateMachine(channel, kind, estimator, params=params.alarm,
+                                        vehicle=vehicle)
+        self._J = 0.0
+        self._faulty = False
+        self._since_class = 0
+
+    def step(self, t_us: int, value: float, valid: bool) -> tuple[ChannelStatus, list[AlarmEvent]]:
+        """Process one sample; an invalid or non-finite value holds J and the decision."""
+        th = self.p.threshold
+        events: list[AlarmEvent] = []
+        if valid and value == value and abs(value) != math.inf:
+            self._J = self._rms.update(value)
+            self._hist.push(value, math.nan)
+            was = self._faulty
+            self._faulty = self._conf.update(self._J, th)
+            if self._faulty:
+                self._since_class += 1
+                if not was or self._since_class >= self.p.reclassify_every_n:
+                    self._since_class = 0
+                    r, _ = self._hist.ordered()
+                    if len(r) >= 4:
+                        c = classify_residual(np.asarray(r), self.p.dt_s, self._cp)
+                        ft, mag = c.fault_type, c.magnitude
+                    else:
+                        ft, mag = FaultType.UNKNOWN, value
+                    events = self._alarm.step(t_us, True, fault_type=ft, magnitude=mag,
+                                              rms=self._J, threshold=th,
+                                              message=f"{ft.value} {mag:.4g}")
+            elif was:
+                events = self._alarm.step(t_us, False, rms=self._J, threshold=th)
+        status = ChannelStatus(channel=self.channel, t_us=t_us, value=value, rms=self._J,
+                               threshold=th, faulty=self._faulty, estimator=self.estimator)
+        return status, events
+
+
+def calibrate(
+    values: Sequence[float] | np.ndarray,
+    *,
+    rms_window_n: int = RmsWindowParams().rms_window_n,
+    rule: str = "max",
+    k: float | None = None,
+) -> float:
+    """Detection threshold J_th from a fault-free record of a channel's residual.
+
+    Wan2018 sec. VI-B sets J_th from the worst fault-free residual RMS so that the
+    fault-free runs give zero false alarms.  Two rules:
+
+    - ``"max"`` : ``J_th = k * max_k J_k`` over the record (default k = 1.5: a margin over
+      the worst case seen, since a finite record under-samples the tail);
+    - ``"mean_std"`` : ``J_th = mean(J) + k * std(J)`` (default k = 6), for long records
+      where a statistical margin is preferred to the single worst sample.
+
+    Parameters
+    ----------
+    values : (N,) fault-free residual or fault estimate, SI; N >= rms_window_n
+    rms_window_n : N_eval of the monitor that will use the threshold
+    """
+    x = np.asarray(values, dtype=np.float64)
+    x = x[np.isfinite(x)]
+    if x.size < rms_window_n:
+        raise ValueError(f"need >= {rms_window_n} finite samples, got {x.size}")
+    # full-window RMS only (the start-up partial windows under-estimate J)
+    c = np.concatenate(([0.0], np.cumsum(x * x)))
+    J = np.sqrt(np.maximum(c[rms_window_n:] - c[:-rms_window_n], 0.0) / rms_window_n)
+    if rule == "max":
+        return float((1.5 if k is None else k) * J.max())
+    if rule == "mean_std":
+        return float(J.mean() + (6.0 if k is None else k) * J.std())
+    raise ValueError(f"unknown calibration rule {rule!r}: use 'max' or 'mean_std'")
