@@ -1,0 +1,311 @@
+"""Encode sensor samples as MAVLink 2 (ardupilotmega) per docs/telemetry.md, and send them.
+
+One :class:`MavlinkEncoder` (one reused ``MAVLink`` object, messages packed directly, no mavutil)
+turns :class:`~sim_vehicle.sensors.suite.SensorSample` objects and the true actuator state into
+packets; :class:`TlogWriter` writes a .tlog (8-byte big-endian µs timestamp + packet, timestamp =
+``TLOG_EPOCH_US`` + vehicle time, so a replay is byte-for-byte deterministic);
+:class:`UdpSender` sends live on a monotonic-clock schedule (no drift).
+
+Contract (docs/telemetry.md), sensor group -> messages:
+
+* ``imu<i>`` -> HIGHRES_IMU (id = i; time_usec)
+* ``attitude`` -> ATTITUDE (time_boot_ms; body rates from the latest imu0 sample)
+* ``gps`` -> GLOBAL_POSITION_INT (lat/lon degE7, alt mm, v cm/s) and GPS_RAW_INT (fix 3D)
+* ``airdata`` -> AIRSPEED id 0..2 (CAS, impact pressure hPa, OAT cdegC), AOA_SSA (vane 0, deg),
+  NAMED_VALUE_FLOAT ``AOA1``/``AOA2`` (deg)
+* ``baro`` -> VFR_HUD (alt = pressure altitude, climb positive up)
+* ``static`` -> SCALED_PRESSURE (press_abs hPa, temperature cdegC)
+* clocked: HEARTBEAT, SERVO_OUTPUT_RAW (PWM 1500 +- 500 = +- max deflection of commanded
+  surface), DEBUG_FLOAT_ARRAY ``SURF`` array 0 (cmd, pos, rod per surface)
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import socket
+import struct
+import time
+from pathlib import Path
+from types import TracebackType
+from typing import BinaryIO
+
+os.environ.setdefault("MAVLINK20", "1")
+os.environ.setdefault("MAVLINK_DIALECT", "ardupilotmega")
+from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
+
+try:  # the C CRC pymavlink itself uses when available
+    from fastcrc.crc16 import mcrf4xx as _mcrf4xx  # noqa: E402
+except ImportError:  # pragma: no cover - pure-Python fallback
+    _mcrf4xx = None
+
+from gcs_monitor.core.atmosphere import impact_pressure_pa  # noqa: E402
+from gcs_monitor.core.units import PA2HPA, RAD2DEG, RAD2DEGE7  # noqa: E402
+from sim_vehicle.sensors.channels import N_AIRDATA  # noqa: E402
+from sim_vehicle.sensors.suite import SensorSample  # noqa: E402
+from sim_vehicle.state import TrueState  # noqa: E402
+
+TLOG_EPOCH_US = 1_700_000_000_000_000  # fixed wall epoch: tlog timestamps = epoch + vehicle time
+KELVIN_0C = 273.15
+PWM_CENTER_US = 1500
+PWM_HALF_RANGE_US = 500
+DEBUG_ARRAY_LEN = 58  # DEBUG_FLOAT_ARRAY.data length
+GPS_FIX_3D = 3
+GPS_SATELLITES = 12
+GPS_EPH_CM = 100  # HDOP*100 placeholder: 1.0
+INT16_MAX = 32767
+
+
+def _i16(x: float) -> int:
+    return max(-INT16_MAX - 1, min(INT16_MAX, int(round(x))))
+
+
+def _cdegc(temp_k: float) -> int:
+    return _i16((temp_k - KELVIN_0C) * 100.0)
+
+
+MAVLINK2_MAGIC = 0xFD
+_HDR = struct.Struct("<BBBBBBBHB")
+_CRC = struct.Struct("<H")
+
+
+class _FastPacker:
+    """Packs one message type straight from arguments in declaration (``*_encode``) order.
+
+    Same bytes as ``MAVLink_<msg>_message(...).pack(mav)`` (tested), without building the
+    message object: a generated wire-order ``struct.pack`` call, header and C CRC.
+    """
+
+    def __init__(self, cls: type) -> None:
+        self.msg_id: int = cls.id  # type: ignore[attr-defined]
+        self.crc_extra = bytes([cls.crc_extra])  # type: ignore[attr-defined]
+        names = cls.fieldnames  # type: ignore[attr-defined]
+        args = []
+        for f, n in zip(cls.ordered_fieldnames, cls.lengths, strict=True):  # type: ignore[attr-defined]
+            i = names.index(f)
+            is_array = n > 1 and cls.fieldtypes[i] != "char"  # type: ignore[attr-defined]
+            args.append(f"*a[{i}]" if is_array else f"a[{i}]")
+        self.payload = eval(  # noqa: S307 - generated from pymavlink's own field tables
+            f"lambda a: st({', '.join(args)})", {"st": cls.unpacker.pack})  # type: ignore[attr-defined]
+
+    def pack(self, mav: mavlink.MAVLink, *a: object) -> bytes:
+        payload = self.payload(a).rstrip(b"\0") or b"\0"  # MAVLink 2 trailing-zero truncation
+        mid = self.msg_id
+        hdr = _HDR.pack(MAVLINK2_MAGIC, len(payload), 0, 0, mav.seq, mav.srcSystem,
+                        mav.srcComponent, mid & 0xFFFF, mid >> 16)
+        body = hdr[1:] + payload
+        crc = _mcrf4xx(body + self.crc_extra, 0xFFFF)
+        mav.seq = (mav.seq + 1) % 256
+        return hdr + payload + _CRC.pack(crc)
+
+
+_PACKERS: dict[type, _FastPacker] = {}
+
+
+class MavlinkEncoder:
+    """Contract encoder for one vehicle.
+
+    Parameters
+    ----------
+    sysid, compid : MAVLink source (docs/telemetry.md: compid 1 = autopilot)
+    servo_max_deflection_rad : (3,) deflection that maps to PWM 1500 +- 500 per surface
+    home_alt_m : altitude for GLOBAL_POSITION_INT.relative_alt
+    """
+
+    def __init__(
+        self,
+        *,
+        sysid: int = 1,
+        compid: int = 1,
+        servo_max_deflection_rad: tuple[float, float, float] = (0.35, 0.35, 0.4),
+        home_alt_m: float = 0.0,
+    ) -> None:
+        self.mav = mavlink.MAVLink(None, srcSystem=sysid, srcComponent=compid)
+        self.servo_max = servo_max_deflection_rad
+        self.home_alt_m = home_alt_m
+        self._gyro0 = (0.0, 0.0, 0.0)
+        self._oat_k = KELVIN_0C + 15.0
+        self._gs_mps = 0.0
+        self._hdg_deg = 0
+        self._cas0 = 0.0
+        self._throttle = 0
+        self._surf = [0.0] * DEBUG_ARRAY_LEN
+
+    def _pack(self, cls: type, *args: object) -> bytes:
+        """Encode one message given ``cls`` and its ``*_encode`` arguments."""
+        if _mcrf4xx is None:  # pragma: no cover
+            buf: bytes = cls(*args).pack(self.mav)
+            self.mav.seq = (self.mav.seq + 1) % 256
+            return buf
+        p = _PACKERS.get(cls)
+        if p is None:
+            p = _PACKERS[cls] = _FastPacker(cls)
+        return p.pack(self.mav, *args)
+
+    # -- sensor-driven -------------------------------------------------------------------------
+
+    def encode_sample(self, s: SensorSample) -> list[tuple[str, bytes]]:
+        """Packets carrying one sensor sample, as (message type, bytes)."""
+        g, t_us, v = s.group, s.t_us, s.values
+        ms = t_us // 1000
+        M = mavlink
+        if g.startswith("imu"):
+            inst = int(g[3:])
+            if inst == 0:
+                self._gyro0 = (float(v[3]), float(v[4]), float(v[5]))
+            return [("HIGHRES_IMU", self._pack(M.MAVLink_highres_imu_message,
+                t_us, v[0], v[1], v[2], v[3], v[4], v[5], 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+                self._oat_k - KELVIN_0C, 0x3F, inst))]
+        if g == "attitude":
+            self._hdg_deg = int(round(math.degrees(v[2]))) % 360
+            p, q, r = self._gyro0
+            return [("ATTITUDE", self._pack(M.MAVLink_attitude_message,
+                ms, v[0], v[1], v[2], p, q, r))]
+        if g == "gps":
+            vn, ve, vd, lat, lon, alt = (float(x) for x in v)
+            gs = math.hypot(vn, ve)
+            self._gs_mps = gs
+            cog = int(round(math.degrees(math.atan2(ve, vn)) * 100.0)) % 36000
+            lat7, lon7 = int(round(lat * RAD2DEGE7)), int(round(lon * RAD2DEGE7))
+            alt_mm = int(round(alt * 1000.0))
+            return [
+                ("GLOBAL_POSITION_INT", self._pack(M.MAVLink_global_position_int_message,
+                    ms, lat7, lon7, alt_mm, int(round((alt - self.home_alt_m) * 1000.0)),
+                    _i16(vn * 100.0), _i16(ve * 100.0), _i16(vd * 100.0), cog)),
+                ("GPS_RAW_INT", self._pack(M.MAVLink_gps_raw_int_message,
+                    t_us, GPS_FIX_3D, lat7, lon7, alt_mm, GPS_EPH_CM, GPS_EPH_CM,
+                    min(int(round(gs * 100.0)), 65534), cog, GPS_SATELLITES,
+                    0, 0, 0, 0, 0, 0)),
+            ]
+        if g == "airdata":
+            out = []
+            temp = _cdegc(self._oat_k)
+            self._cas0 = float(v[N_AIRDATA])
+            for i in range(N_AIRDATA):
+                cas = float(v[N_AIRDATA + i])
+                qc_hpa = impact_pressure_pa(cas) * PA2HPA if cas > 0 else 0.0
+                out.append(("AIRSPEED", self._pack(M.MAVLink_airspeed_message,
+                    i, cas, temp, qc_hpa, 0)))
+            out.append(("AOA_SSA", self._pack(M.MAVLink_aoa_ssa_message,
+                t_us, v[0] * RAD2DEG, v[2 * N_AIRDATA] * RAD2DEG)))
+            for i in range(1, N_AIRDATA):
+                out.append(("NAMED_VALUE_FLOAT", self._pack(M.MAVLink_named_value_float_message,
+                    ms, f"AOA{i}".encode(), v[i] * RAD2DEG)))
+            return out
+        if g == "baro":
+            return [("VFR_HUD", self._pack(M.MAVLink_vfr_hud_message,
+                self._cas0, self._gs_mps, self._hdg_deg, self._throttle, v[0], v[1]))]
+        if g == "static":
+            self._oat_k = float(v[1])
+            qc_hpa = impact_pressure_pa(self._cas0) * PA2HPA if self._cas0 > 0 else 0.0
+            return [("SCALED_PRESSURE", self._pack(M.MAVLink_scaled_pressure_message,
+                ms, v[0] * PA2HPA, qc_hpa, _cdegc(v[1]), 0))]
+        raise KeyError(g)
+
+    # -- clocked -------------------------------------------------------------------------------
+
+    def heartbeat(self) -> tuple[str, bytes]:
+        M = mavlink
+        return ("HEARTBEAT", self._pack(M.MAVLink_heartbeat_message,
+            M.MAV_TYPE_FIXED_WING, M.MAV_AUTOPILOT_ARDUPILOTMEGA,
+            M.MAV_MODE_FLAG_SAFETY_ARMED | M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 0,
+            M.MAV_STATE_ACTIVE, 3))
+
+    def servo_output_raw(self, t_us: int, st: TrueState) -> tuple[str, bytes]:
+        pwm = []
+        for k in range(3):
+            frac = max(-1.0, min(1.0, float(st.surf_cmd_rad[k]) / self.servo_max[k]))
+            pwm.append(int(round(PWM_CENTER_US + PWM_HALF_RANGE_US * frac)))
+        self._throttle = int(round(100.0 * st.throttle))
+        return ("SERVO_OUTPUT_RAW", self._pack(mavlink.MAVLink_servo_output_raw_message,
+            t_us & 0xFFFFFFFF, 0, pwm[0], pwm[1], pwm[2], 0, 0, 0, 0, 0,
+            0, 0, 0, 0, 0, 0, 0, 0))
+
+    def surf(self, t_us: int, st: TrueState) -> tuple[str, bytes]:
+        d = self._surf
+        for k in range(3):
+            d[3 * k] = float(st.surf_cmd_rad[k])
+            d[3 * k + 1] = float(st.surf_pos_rad[k])
+            d[3 * k + 2] = float(st.rod_pos_m[k])
+        return ("DEBUG_FLOAT_ARRAY", self._pack(mavlink.MAVLink_debug_float_array_message,
+            t_us, b"SURF", 0, d))
+
+
+# ---------------------------------------------------------------------------------------------
+# sinks
+# ---------------------------------------------------------------------------------------------
+
+
+class TlogWriter:
+    """.tlog writer: ``>Q`` (epoch + vehicle µs) + packet; temp file renamed on close."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = Path(path)
+        self._tmp = self.path.with_name(self.path.name + ".part")
+        self._fh: BinaryIO = open(self._tmp, "wb")  # noqa: SIM115 - closed in close()
+        self._ts = struct.Struct(">Q")
+
+    def write(self, t_us: int, packet: bytes) -> None:
+        self._fh.write(self._ts.pack(TLOG_EPOCH_US + t_us) + packet)
+
+    def close(self, *, commit: bool = True) -> None:
+        if self._fh.closed:
+            return
+        self._fh.close()
+        if commit:
+            os.replace(self._tmp, self.path)
+        else:
+            self._tmp.unlink(missing_ok=True)
+
+    def __enter__(self) -> TlogWriter:
+        return self
+
+    def __exit__(self, et: type[BaseException] | None, e: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        self.close(commit=et is None)
+
+
+def parse_hostport(text: str, default_port: int = 14550) -> tuple[str, int]:
+    """``"HOST:PORT"`` -> (host, port); raises ValueError with a readable message."""
+    host, sep, port = text.rpartition(":")
+    if not sep:
+        host, port = text, str(default_port)
+    if not host:
+        raise ValueError(f"--udp {text!r}: expected HOST:PORT")
+    try:
+        p = int(port)
+    except ValueError:
+        raise ValueError(f"--udp {text!r}: port {port!r} is not an integer") from None
+    if not 0 < p < 65536:
+        raise ValueError(f"--udp {text!r}: port must be 1..65535")
+    return host, p
+
+
+class UdpSender:
+    """udpout to HOST:PORT, paced so that vehicle time tracks a monotonic clock.
+
+    Packets for vehicle time ``t_us`` are sent at ``t0 + t_us`` on ``time.monotonic``; the
+    schedule is absolute, so sleep jitter never accumulates into drift.
+    """
+
+    def __init__(self, host: str = "127.0.0.1", port: int = 14550) -> None:
+        self.addr = (host, port)
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self._t0: float | None = None
+
+    def pace(self, t_us: int) -> None:
+        now = time.monotonic()
+        if self._t0 is None:
+            self._t0 = now - t_us * 1e-6
+        delay = self._t0 + t_us * 1e-6 - now
+        if delay > 0:
+            time.sleep(delay)
+
+    def write(self, t_us: int, packet: bytes) -> None:
+        try:
+            self.sock.sendto(packet, self.addr)
+        except OSError:  # nobody listening (ICMP port unreachable) is not an error for udpout
+            pass
+
+    def close(self) -> None:
+        self.sock.close()

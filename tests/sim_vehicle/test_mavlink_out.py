@@ -1,0 +1,154 @@
+"""MAVLink output: contract fields decode back with stock pymavlink; rates in .tlog and live."""
+
+from __future__ import annotations
+
+import math
+import os
+import socket
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+
+os.environ["MAVLINK20"] = "1"
+os.environ["MAVLINK_DIALECT"] = "ardupilotmega"
+from pymavlink import mavutil  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).parent))
+from test_run import FakeSim, demo  # noqa: E402
+
+from gcs_monitor.core.units import RAD2DEG  # noqa: E402
+from sim_vehicle.mavlink_out import TLOG_EPOCH_US, MavlinkEncoder, UdpSender, parse_hostport  # noqa: E402
+from sim_vehicle.run import run_scenario  # noqa: E402
+from sim_vehicle.sensors.suite import SensorSample  # noqa: E402
+
+
+def decode(packets: list[tuple[str, bytes]]) -> list:
+    mav = mavutil.mavlink.MAVLink(None)
+    out = []
+    for _, p in packets:
+        out += mav.parse_buffer(p) or []
+    return out
+
+
+def test_contract_fields_round_trip() -> None:
+    enc = MavlinkEncoder(sysid=7)
+    air = np.array([0.05, 0.06, 0.07, 100.0, 101.0, 102.0, 0.01])
+    gps = np.array([100.0, -5.0, 2.5, math.radians(52.0), math.radians(4.4), 1234.567])
+    pk = []
+    pk += enc.encode_sample(SensorSample("static", 1_000_000, np.array([89_000.0, 281.65])))
+    pk += enc.encode_sample(SensorSample("imu2", 1_230_000, np.array([1, 2, 3, .1, .2, .3])))
+    pk += enc.encode_sample(SensorSample("attitude", 1_230_000, np.array([0.1, -0.2, 3.0])))
+    pk += enc.encode_sample(SensorSample("gps", 1_300_000, gps))
+    pk += enc.encode_sample(SensorSample("airdata", 1_350_000, air))
+    pk += enc.encode_sample(SensorSample("baro", 1_350_000, np.array([987.5, 1.25])))
+    def key(m):  # noqa: ANN001, ANN202
+        t = m.get_type()
+        return (t, m.id if t in ("HIGHRES_IMU", "AIRSPEED") else None,
+                m.to_dict()["name"] if t == "NAMED_VALUE_FLOAT" else None)
+
+    msgs = {key(m): m for m in decode(pk)}
+    assert all(m.get_srcSystem() == 7 and m.get_srcComponent() == 1 for m in msgs.values())
+    imu = msgs[("HIGHRES_IMU", 2, None)]
+    assert imu.time_usec == 1_230_000 and imu.zacc == 3.0 and abs(imu.zgyro - 0.3) < 1e-7
+    att = msgs[("ATTITUDE", None, None)]
+    assert att.time_boot_ms == 1230 and abs(att.yaw - 3.0) < 1e-6
+    gp = msgs[("GLOBAL_POSITION_INT", None, None)]
+    assert gp.lat == 520_000_000 and gp.lon == 44_000_000 and gp.alt == 1_234_567
+    assert (gp.vx, gp.vy, gp.vz) == (10_000, -500, 250) and gp.time_boot_ms == 1300
+    assert msgs[("GPS_RAW_INT", None, None)].fix_type == 3
+    for i in range(3):
+        a = msgs[("AIRSPEED", i, None)]
+        assert abs(a.airspeed - air[3 + i]) < 1e-4 and a.temperature == 850  # 8.5 degC
+    aoa = msgs[("AOA_SSA", None, None)]
+    assert abs(aoa.AOA - 0.05 * RAD2DEG) < 1e-5 and abs(aoa.SSA - 0.01 * RAD2DEG) < 1e-5
+    assert aoa.time_usec == 1_350_000
+    assert abs(msgs[("NAMED_VALUE_FLOAT", None, "AOA2")].value - 0.07 * RAD2DEG) < 1e-5
+    hud = msgs[("VFR_HUD", None, None)]
+    assert abs(hud.alt - 987.5) < 1e-4 and hud.climb == 1.25
+    sp = msgs[("SCALED_PRESSURE", None, None)]
+    assert abs(sp.press_abs - 890.0) < 1e-3 and sp.temperature == 850
+
+
+def test_tlog_rates_with_stock_mavutil(tmp_path: Path) -> None:
+    sc = demo(20.0)
+    res = run_scenario(sc, tmp_path, progress=False, simulation_factory=FakeSim)
+    log = mavutil.mavlink_connection(str(res.tlog_path))
+    times: dict[str, list[float]] = {}
+    while (m := log.recv_match()) is not None:
+        key = m.get_type()
+        if key in ("HIGHRES_IMU", "AIRSPEED"):
+            key += str(m.id)
+        elif key == "NAMED_VALUE_FLOAT":
+            key += m.to_dict()["name"]
+        times.setdefault(key, []).append(m._timestamp)
+    r, o = sc.sensors.rates, sc.output
+    expected = {"HEARTBEAT": o.heartbeat_hz, "ATTITUDE": r.attitude_hz,
+                "GLOBAL_POSITION_INT": r.gps_hz, "GPS_RAW_INT": r.gps_hz, "AOA_SSA": r.airdata_hz,
+                "NAMED_VALUE_FLOAT" + "AOA1": r.airdata_hz, "NAMED_VALUE_FLOATAOA2": r.airdata_hz,
+                "VFR_HUD": r.baro_hz, "SCALED_PRESSURE": r.static_hz,
+                "SERVO_OUTPUT_RAW": o.servo_output_raw_hz, "DEBUG_FLOAT_ARRAY": o.surf_hz,
+                **{f"HIGHRES_IMU{i}": r.imu_hz for i in range(3)},
+                **{f"AIRSPEED{i}": r.airdata_hz for i in range(3)}}
+    assert set(times) == set(expected)
+    for k, hz in expected.items():
+        t = np.array(times[k])
+        rate = (len(t) - 1) / (t[-1] - t[0])
+        assert abs(rate / hz - 1) < 0.05, (k, rate, hz)
+    assert times["HEARTBEAT"][0] == TLOG_EPOCH_US * 1e-6  # timestamps = epoch + vehicle time
+
+
+def test_live_rate_over_udp_loopback(tmp_path: Path) -> None:
+    rx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    rx.bind(("127.0.0.1", 0))
+    port = rx.getsockname()[1]
+    rx.close()
+    conn = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}")
+    arrivals: list[tuple[float, str]] = []
+    stop = threading.Event()
+
+    def receive() -> None:
+        while not stop.is_set():
+            m = conn.recv_match(blocking=True, timeout=0.2)
+            if m is not None:
+                arrivals.append((time.monotonic(), m.get_type()))
+
+    th = threading.Thread(target=receive, daemon=True)
+    th.start()
+    sc = demo(3.0)
+    t0 = time.monotonic()
+    res = run_scenario(sc, tmp_path, live=True,
+                       udp=("127.0.0.1", port), simulation_factory=FakeSim)
+    wall = time.monotonic() - t0
+    time.sleep(0.3)
+    stop.set()
+    th.join()
+    conn.close()
+    assert res.tlog_path is None
+    assert 2.95 <= wall < 3.6  # paced to vehicle time (3 s), no drift
+    att = [t for t, k in arrivals if k == "ATTITUDE"]
+    assert len(att) >= 0.95 * res.counts["ATTITUDE"]
+    rate = (len(att) - 1) / (att[-1] - att[0])
+    assert abs(rate / sc.sensors.rates.attitude_hz - 1) < 0.05
+
+
+def test_udp_sender_paces_on_absolute_schedule() -> None:
+    s = UdpSender("127.0.0.1", 9)
+    t0 = time.monotonic()
+    for k in range(50):
+        s.pace(k * 10_000)  # 0.49 s of vehicle time
+    s.close()
+    assert 0.48 <= time.monotonic() - t0 < 0.6
+
+
+def test_parse_hostport() -> None:
+    assert parse_hostport("10.0.0.2:14551") == ("10.0.0.2", 14551)
+    assert parse_hostport("localhost") == ("localhost", 14550)
+    for bad in ("host:notaport", ":14550", "h:70000"):
+        try:
+            parse_hostport(bad)
+        except ValueError:
+            continue
+        raise AssertionError(bad)
