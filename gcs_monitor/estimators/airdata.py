@@ -1,0 +1,312 @@
+"""Fault-tolerant air-data estimation (Wan2018): CMHE, UMHE or EKF on the wind model.
+
+Step 3 of the Wan2018 FTE scheme (Fig. 1): joint state and wind estimation and the
+one-step-ahead predictions ``alpha_hat_{k|k-1}``, ``V_c_hat_{k|k-1}`` that the FDI layer turns
+into residuals (eq. 17), RMS windows (eq. 18) and the fused measurement (eq. 19).
+
+Calling order per Frame, done by the FDI layer::
+
+    est.set_fused_measurements(aoa_fused, cas_fused)   # eq. 19 from the previous J; None = lost
+    estimate = est.step(frame)
+
+Without ``set_fused_measurements`` the estimator fuses the valid instances with equal weights
+(eq. 19 with equal J), which is what eq. 19 gives before any residual history exists.
+The filter steps only on frames with new air data (20 Hz); other frames return an Estimate
+without residuals, so residual windows count air-data samples (N_eval = 10, Wan2018 sec. V-C).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from gcs_monitor.core.types import ChannelId, Vec
+from gcs_monitor.estimators.base import Estimate
+from gcs_monitor.filters.airdata_ekf import EkfState, ekf_predict, ekf_update
+from gcs_monitor.filters.mhe import (
+    IpSettings,
+    MheBounds,
+    MheState,
+    MheWeights,
+    mhe_init,
+    mhe_predict,
+    mhe_step,
+)
+from gcs_monitor.models.airdata import (
+    IY_AOA,
+    IY_CAS,
+    N_U,
+    N_X,
+    AirDataModel,
+    airdata_initial_state,
+)
+from gcs_monitor.telemetry.frame import Frame
+
+logger = logging.getLogger(__name__)
+
+VARIANTS = ("cmhe", "umhe", "ekf")
+VIRTUAL_AOA = ChannelId("aoa_virtual")
+VIRTUAL_CAS = ChannelId("cas_virtual")
+
+
+@dataclass(frozen=True, slots=True)
+class AirDataEstimatorConfig:
+    """Tuning of the Wan2018 estimator (SI units; squared units for the weights).
+
+    Wan2018 gives N = 3, n_kappa = n_QP = 2 (sec. V-C), p_w = 0.01 and q_w = 0.1 or 1
+    (Figs. 3-5) and the rule "R = measurement noise variances"; the other weights and the wind
+    bounds are not published, ours are chosen for a transport aircraft (see
+    docs/papers-notes.md "Wan2018"). Bounds are per flight condition: replace them with
+    :meth:`AirDataEstimator.set_wind_bounds`.
+    """
+
+    horizon_n: int = 3  # Wan2018 sec. V-C
+    dt_nominal_s: float = 0.05  # 20 Hz air data (Wan2018's data suggest 0.048 s)
+    max_dt_s: float = 0.25  # larger gaps reset the estimator
+    max_gps_age_s: float = 0.5
+    max_att_age_s: float = 0.5
+    # P = diag(p_alpha, p_v, p_w I2)  (eq. 22); p_w from Wan2018 Figs. 3-5
+    p_alpha_rad2: float = 1.0e-6
+    p_v_m2ps2: float = 1.0e-2
+    p_w_m2ps2: float = 1.0e-2
+    # Q = diag(q_alpha, q_v, q_w I2)  (eq. 22); q_w = 1 as Wan2018 Fig. 4
+    q_alpha_rad2ps2: float = 1.0e-4
+    q_v_m2ps4: float = 0.25
+    q_w_m2ps4: float = 1.0
+    # R = diag(R_vg, R_vz, R_alpha, R_vc): measurement noise variances (Wan2018 sec. VI-A).
+    # Wan2018 eq. 22 lists only R_alpha, R_vz, R_vc; V_g is measured too, so R_vg is added.
+    r_vg_m2ps2: float = 0.01
+    r_vz_m2ps2: float = 0.04
+    r_alpha_rad2: float = 3.0e-6  # (0.1 deg)^2
+    r_vc_m2ps2: float = 0.25  # (0.5 m/s)^2
+    # Wind bounds (eq. 21b), here for moderate weather; Wan2018 sec. VI-B winds < 120 kts.
+    wind_x_max_mps: float = 20.0
+    wind_z_max_mps: float = 8.0
+    wind_rate_max_mps2: float = 2.0
+    kappa_init: float = 1.0e-2
+    n_s_max: int = 12
+
+
+class AirDataEstimator:
+    """Wan2018 air-data estimator on telemetry Frames; ``variant`` = "cmhe" | "umhe" | "ekf"."""
+
+    def __init__(self, config: AirDataEstimatorConfig | None = None, variant: str = "cmhe") -> None:
+        if variant not in VARIANTS:
+            raise ValueError(f"variant must be one of {VARIANTS}, got {variant!r}")
+        self.cfg = config or AirDataEstimatorConfig()
+        self.variant = variant
+        self.name = f"airdata_{variant}"
+        self.model = AirDataModel()
+        c = self.cfg
+        self.weights = MheWeights(
+            p_diag=np.array([c.p_alpha_rad2, c.p_v_m2ps2, c.p_w_m2ps2, c.p_w_m2ps2]),
+            q_diag=np.array([c.q_alpha_rad2ps2, c.q_v_m2ps4, c.q_w_m2ps4, c.q_w_m2ps4]),
+            r_diag=np.array([c.r_vg_m2ps2, c.r_vz_m2ps2, c.r_alpha_rad2, c.r_vc_m2ps2]),
+        )
+        self.ip = IpSettings(
+            kappa_init=c.kappa_init, n_s_max=c.n_s_max, constrained=(variant == "cmhe")
+        )
+        self.bounds = MheBounds.unbounded(N_X, N_U)
+        self.set_wind_bounds(c.wind_x_max_mps, c.wind_z_max_mps, c.wind_rate_max_mps2)
+        self.reset()
+
+    # ------------------------------------------------------------------ public API
+    def set_wind_bounds(
+        self, wind_x_max_mps: float, wind_z_max_mps: float, wind_rate_max_mps2: float
+    ) -> None:
+        """Symmetric bounds on W_x, W_z and on u_w (Wan2018 eq. 21b), per flight condition."""
+        inf = math.inf
+        self.bounds = MheBounds(
+            x_lb=np.array([-inf, -inf, -wind_x_max_mps, -wind_z_max_mps]),
+            x_ub=np.array([inf, inf, wind_x_max_mps, wind_z_max_mps]),
+            u_lb=np.array([-inf, -inf, -wind_rate_max_mps2, -wind_rate_max_mps2]),
+            u_ub=np.array([inf, inf, wind_rate_max_mps2, wind_rate_max_mps2]),
+        )
+
+    def set_fused_measurements(self, aoa_rad: float | None, cas_mps: float | None) -> None:
+        """Fused AoA / CAS of Wan2018 eq. 19 for the next :meth:`step`.
+
+        ``None`` means every instance of that set is isolated as faulty: the corresponding row
+        of C is zeroed (output configurations II-IV, Wan2018 Table I and sec. V-C).
+        """
+        self._fused = (aoa_rad, cas_mps)
+
+    def reset(self) -> None:
+        self._mhe: MheState | None = None
+        self._ekf: EkfState | None = None
+        self._theta_prev: Vec | None = None
+        self._t_prev_us: int | None = None
+        self._fused: tuple[float | None, float | None] | None = None
+        self._acc_sum = np.zeros(3)  # A_x, A_z, q summed since the last air-data step
+        self._acc_n = 0
+        self._last_states: dict[str, Vec] = {}
+        self._last_virtual: dict[ChannelId, float] = {}
+
+    @property
+    def x_hat(self) -> Vec | None:
+        """x_hat_{k|k} = [alpha, V_g, W_x, W_z] after the last air-data step."""
+        if self._mhe is not None:
+            return self._mhe.x[self._mhe.n - 1].copy()
+        if self._ekf is not None:
+            return self._ekf.x.copy()
+        return None
+
+    def step(self, frame: Frame) -> Estimate:
+        imu = frame.imu[0] if frame.imu else None
+        if imu is not None:
+            # Anti-aliasing: Theta's A_x, A_z, q are averaged over the IMU samples of the interval.
+            self._acc_sum += (imu.acc_frd_mps2[0], imu.acc_frd_mps2[2], imu.omega_frd_radps[1])
+            self._acc_n += 1
+        if not frame.air_new:
+            return Estimate(
+                name=self.name,
+                t_us=frame.t_us,
+                reason="no new air data",
+                states=self._last_states,
+                virtual=self._last_virtual,
+            )
+        theta_p, why = self._theta(frame)
+        fused = self._fused
+        self._fused = None
+        self._acc_sum[:] = 0.0
+        self._acc_n = 0
+        if theta_p is None:
+            return Estimate.unavailable(self.name, frame.t_us, why)
+        y, mask = self._measurements(frame, theta_p, fused)
+        if self._t_prev_us is None or self._theta_prev is None:
+            self._start(frame.t_us, theta_p, y, mask)
+            return Estimate(name=self.name, t_us=frame.t_us, reason="initialised")
+        dt_s = (frame.t_us - self._t_prev_us) * 1e-6
+        if not 0.0 < dt_s <= self.cfg.max_dt_s:
+            self._start(frame.t_us, theta_p, y, mask)
+            return Estimate(name=self.name, t_us=frame.t_us, reason=f"air-data gap {dt_s:.3f} s")
+
+        # one-step-ahead prediction x_hat_{k|k-1} = F(x_hat_{k-1|k-1}, 0, Theta_{k-1}) (eq. 29)
+        if self._mhe is not None:
+            x_pred = mhe_predict(self._mhe, self.model, dt_s)
+        else:
+            assert self._ekf is not None
+            x_pred = self.model.f(self._ekf.x, np.zeros(N_U), self._theta_prev, dt_s)
+        y_pred = self.model.h(x_pred, theta_p)
+        residuals: dict[ChannelId, float] = {}
+        for i, v in enumerate(frame.aoa_rad):
+            if np.isfinite(v):
+                residuals[ChannelId("aoa", i)] = float(v - y_pred[IY_AOA])  # eq. 17
+        for i, v in enumerate(frame.cas_mps):
+            if np.isfinite(v):
+                residuals[ChannelId("cas", i)] = float(v - y_pred[IY_CAS])  # eq. 17
+
+        ok = True
+        if self._mhe is not None:
+            self._mhe, info = mhe_step(
+                self._mhe, self.model, y, mask, theta_p, dt_s, self.weights, self.bounds, self.ip
+            )
+            ok = info.numerics_ok
+            x_hat = self._mhe.x[self._mhe.n - 1]
+        else:
+            assert self._ekf is not None
+            pred = ekf_predict(self._ekf, self.model, self._theta_prev, dt_s, self.weights.q_diag)
+            upd = ekf_update(pred, self.model, y, mask, theta_p, self.weights.r_diag)
+            self._ekf = upd.state
+            ok = upd.numerics_ok
+            x_hat = self._ekf.x
+        if not ok or not np.all(np.isfinite(x_hat)):
+            logger.warning("%s: numerical failure at t_us=%d, reset", self.name, frame.t_us)
+            self.reset()
+            return Estimate(
+                name=self.name,
+                t_us=frame.t_us,
+                residuals=residuals,
+                numerics_ok=False,
+                reason="numerical failure, reset",
+            )
+        self._theta_prev = theta_p
+        self._t_prev_us = frame.t_us
+        y_hat = self.model.h(x_hat, theta_p)
+        self._last_states = {
+            "aoa_pred_rad": np.array([y_pred[IY_AOA]]),
+            "cas_pred_mps": np.array([y_pred[IY_CAS]]),
+            "x_hat": x_hat.copy(),  # [alpha rad, V_g m/s, W_x m/s, W_z m/s down]
+            "wind_xz_mps": x_hat[2:4].copy(),
+            "aoa_rad": np.array([y_hat[IY_AOA]]),
+            "cas_mps": np.array([y_hat[IY_CAS]]),
+            "output_mask": mask.copy(),
+        }
+        self._last_virtual = {VIRTUAL_AOA: float(y_hat[IY_AOA]), VIRTUAL_CAS: float(y_hat[IY_CAS])}
+        return Estimate(
+            name=self.name,
+            t_us=frame.t_us,
+            states=self._last_states,
+            residuals=residuals,
+            virtual=self._last_virtual,
+            numerics_ok=True,
+        )
+
+    # ------------------------------------------------------------------ internals
+    def _theta(self, frame: Frame) -> tuple[Vec | None, str]:
+        """Theta = [V_g, theta, q, A_x, A_z, z] (Wan2018 eq. 2) from the Frame."""
+        if self._acc_n == 0:
+            return None, "no IMU sample"
+        if frame.euler_rad is None or frame.att_age_s > self.cfg.max_att_age_s:
+            return None, "attitude missing or stale"
+        if frame.gps_vel_ned_mps is None or frame.gps_age_s > self.cfg.max_gps_age_s:
+            return None, "gps velocity missing or stale"
+        if not np.isfinite(frame.baro_alt_m):
+            return None, "baro altitude missing"
+        vg = self._ground_speed(frame)
+        mean = self._acc_sum / self._acc_n
+        return np.array([vg, frame.euler_rad[1], mean[2], mean[0], mean[1], frame.baro_alt_m]), ""
+
+    @staticmethod
+    def _ground_speed(frame: Frame) -> float:
+        """V_g of Wan2018 eq. 10: |(u_g, w_g)|, the ground velocity in the aircraft's vertical
+        plane, i.e. the horizontal component along the heading and the vertical component."""
+        assert frame.gps_vel_ned_mps is not None and frame.euler_rad is not None
+        vn, ve, vd = frame.gps_vel_ned_mps
+        psi = frame.euler_rad[2]
+        v_along = vn * math.cos(psi) + ve * math.sin(psi)
+        return math.hypot(v_along, vd)
+
+    def _measurements(
+        self, frame: Frame, theta_p: Vec, fused: tuple[float | None, float | None] | None
+    ) -> tuple[Vec, Vec]:
+        assert frame.gps_vel_ned_mps is not None
+        if fused is None:  # eq. 19 with equal weights
+            aoa = _nanmean_or_none(frame.aoa_rad)
+            cas = _nanmean_or_none(frame.cas_mps)
+        else:
+            aoa, cas = fused
+        y = np.array(
+            [
+                theta_p[0],
+                -frame.gps_vel_ned_mps[2],
+                aoa if aoa is not None else 0.0,
+                cas if cas is not None else 0.0,
+            ]
+        )
+        mask = np.array([1.0, 1.0, float(aoa is not None), float(cas is not None)])
+        return y, mask
+
+    def _start(self, t_us: int, theta_p: Vec, y: Vec, mask: Vec) -> None:
+        aoa = y[IY_AOA] if mask[IY_AOA] else theta_p[1]  # alpha ~ theta (Wan2018 eq. 15)
+        if mask[IY_CAS]:
+            x0 = airdata_initial_state(aoa, y[IY_CAS], theta_p)
+        else:
+            x0 = np.array([aoa, theta_p[0], 0.0, 0.0])
+        x0[2] = float(np.clip(x0[2], self.bounds.x_lb[2], self.bounds.x_ub[2]))
+        if self.variant == "ekf":
+            self._ekf = EkfState(x=x0, P=np.diag(self.weights.p_diag))
+        else:
+            self._mhe = mhe_init(
+                x0, np.where(mask > 0, y, 0.0), mask, theta_p, self.cfg.horizon_n, N_U
+            )
+        self._theta_prev = theta_p
+        self._t_prev_us = t_us
+
+
+def _nanmean_or_none(v: Vec) -> float | None:
+    ok = np.isfinite(v)
+    return float(np.mean(v[ok])) if np.any(ok) else None

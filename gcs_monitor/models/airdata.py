@@ -1,0 +1,217 @@
+"""Longitudinal air-data model with wind states (Wan2018 sec. II-A, eqs. 1-16, 20).
+
+State ``x = [alpha, V_g, W_x, W_z]`` (rad, m/s, m/s, m/s); unknown input
+``u = [u_alpha, u_v, u_wx, u_wz]`` (rad/s, m/s^2, m/s^2, m/s^2); measured parameters
+``Theta = [V_g, theta, q, A_x, A_z, z]`` (m/s, rad, rad/s, m/s^2, m/s^2, m); outputs
+``y = [V_g, V_z, alpha, V_c]`` (m/s, m/s, rad, m/s).
+
+Sign conventions (chosen to be physically consistent, see docs/papers-notes.md "Wan2018"):
+
+* ``A_x, A_z`` are the body-axis specific forces (FRD, so ``A_z ~ -g`` in level flight);
+  this is what eqs. 5-6 need (``R_BI [0, g]`` adds gravity).
+* ``W_x, W_z`` are the inertial wind components along local north-ish horizontal (projected on
+  the aircraft's vertical plane) and *down*: this is the frame of eqs. 5-10 (gravity
+  ``[0, 0, g]`` is down there and the wind triangle uses ``R_BI``).
+* ``V_z`` is the vertical speed *positive up*. Wan2018 eq. 15 prints
+  ``V_z = -V_t sin(alpha - theta) + W_z``, which mixes an up-positive kinematic term with the
+  down-positive wind of eqs. 5-10; we implement ``V_z = -V_g sin(alpha - theta) - W_z``.
+
+``V_g`` appears both as a state and as a measured parameter (Wan2018 Remark 1): the state
+dynamics and the V_z / V_c outputs use the measured ``Theta[0]``, so ``a_12 = c_22 = 0``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from gcs_monitor.core import constants as c
+from gcs_monitor.core.atmosphere import tas_from_cas
+from gcs_monitor.core.types import Mat, Vec
+
+N_X = 4  # [alpha, V_g, W_x, W_z]
+N_U = 4  # [u_alpha, u_v, u_wx, u_wz]
+N_Y = 4  # [V_g, V_z, alpha, V_c]
+N_THETA = 6  # [V_g, theta, q, A_x, A_z, z]
+
+# Indices into the state, output and parameter vectors.
+IX_AOA, IX_VG, IX_WX, IX_WZ = 0, 1, 2, 3
+IY_VG, IY_VZ, IY_AOA, IY_CAS = 0, 1, 2, 3
+IT_VG, IT_THETA, IT_Q, IT_AX, IT_AZ, IT_Z = 0, 1, 2, 3, 4, 5
+
+# Wan2018 eq. 16: 5 gamma R, the factor of T and T0 in the pitot-static relation.
+_K_CAS = 5.0 * c.ISA_GAMMA * c.ISA_R_JPKGK
+_SQRT_K_T0 = math.sqrt(_K_CAS * c.ISA_T0_K)
+_EXP_ISENTROPIC = 3.5  # gamma / (gamma - 1) for gamma = 1.4 (Wan2018 eq. 16)
+_GAS_EXP = -c.GRAVITY_STD_MPS2 / (c.ISA_R_JPKGK * c.ISA_LAPSE_KPM)
+
+
+@dataclass(frozen=True, slots=True)
+class AirDataModelParams:
+    """Constants of the Wan2018 longitudinal model.
+
+    ``g_mps2`` is the gravity of eqs. 5-9; Wan2018 does not give a value, we use standard
+    gravity (the altitude dependence is far below the model's approximation errors).
+    """
+
+    g_mps2: float = c.GRAVITY_STD_MPS2
+
+
+def isa_temp_pbar(alt_m: float) -> tuple[float, float]:
+    """ISA temperature (K) and static pressure ratio p/p0 at pressure altitude (Wan2018 eq. 16)."""
+    t_k = c.ISA_T0_K + c.ISA_LAPSE_KPM * alt_m
+    p_bar = (1.0 + c.ISA_LAPSE_KPM * alt_m / c.ISA_T0_K) ** _GAS_EXP
+    return t_k, p_bar
+
+
+def cas_from_tas_with_derivative(tas_mps: float, alt_m: float) -> tuple[float, float]:
+    """Calibrated airspeed and dV_c/dV_t (Wan2018 eq. 16), ISA temperature at ``alt_m``.
+
+    Same formula as :func:`gcs_monitor.core.atmosphere.cas_from_tas`, with its analytic
+    derivative for the output Jacobian (row 4 of C, Wan2018 eq. 23).
+    """
+    t_k, p_bar = isa_temp_pbar(alt_m)
+    a = 1.0 + tas_mps * tas_mps / (_K_CAS * t_k)
+    a25 = a**2.5
+    big_y = (a25 * a - 1.0) * p_bar + 1.0
+    y_root = big_y ** (1.0 / _EXP_ISENTROPIC)
+    rho = math.sqrt(max(y_root - 1.0, 0.0))
+    cas = _SQRT_K_T0 * rho
+    if rho <= 0.0:
+        return cas, 0.0
+    # d/dVt of sqrt(Y^(1/3.5) - 1) = Y^(1/3.5 - 1) * p_bar * a^2.5 * 2 Vt / (k T) / (2 rho)
+    dy_root = (y_root / big_y) * p_bar * a25 * 2.0 * tas_mps / (_K_CAS * t_k)
+    return cas, _SQRT_K_T0 * dy_root / (2.0 * rho)
+
+
+def tas_approx(x: Vec, theta_p: Vec) -> float:
+    """True airspeed from the wind triangle with V_g >> wind (Wan2018 eq. 11)."""
+    d = x[IX_AOA] - theta_p[IT_THETA]
+    return theta_p[IT_VG] - x[IX_WX] * math.cos(d) - x[IX_WZ] * math.sin(d)
+
+
+def airdata_derivative(x: Vec, theta_p: Vec, p: AirDataModelParams) -> Vec:
+    """Continuous-time right-hand side without unknown inputs (Wan2018 eqs. 13-14, 1).
+
+    Parameters
+    ----------
+    x : (4,) [alpha rad, V_g m/s, W_x m/s, W_z m/s (down)]
+    theta_p : (6,) Theta = [V_g m/s, theta rad, q rad/s, A_x m/s^2, A_z m/s^2, z m]
+    p : model constants
+
+    Returns
+    -------
+    (4,) [alpha_dot, V_g_dot, 0, 0]
+    """
+    alpha = x[IX_AOA]
+    vg, theta, q, ax, az = (
+        theta_p[IT_VG],
+        theta_p[IT_THETA],
+        theta_p[IT_Q],
+        theta_p[IT_AX],
+        theta_p[IT_AZ],
+    )
+    sa, ca = math.sin(alpha), math.cos(alpha)
+    f_alpha = -ax * sa + az * ca + p.g_mps2 * math.cos(alpha - theta)
+    f_v = ax * ca + az * sa + p.g_mps2 * math.sin(alpha - theta)
+    return np.array([f_alpha / vg + q, f_v, 0.0, 0.0])
+
+
+def airdata_f(x: Vec, u: Vec, theta_p: Vec, dt_s: float, p: AirDataModelParams) -> Vec:
+    """Discrete transition x_{k+1} = x_k + t_s (F(x_k, Theta_k) + u_k) (Wan2018 eq. 20a-c).
+
+    Parameters
+    ----------
+    x : (4,) state; u : (4,) unknown inputs (rates); theta_p : (6,) Theta_k; dt_s : t_s (s)
+    """
+    return x + dt_s * (airdata_derivative(x, theta_p, p) + u)
+
+
+def airdata_f_jac_x(x: Vec, theta_p: Vec, dt_s: float, p: AirDataModelParams) -> Mat:
+    """A_k = dF/dx of :func:`airdata_f` (Wan2018 eq. 23 with a_12 = 0, Remark 1)."""
+    alpha = x[IX_AOA]
+    vg, theta, ax, az = theta_p[IT_VG], theta_p[IT_THETA], theta_p[IT_AX], theta_p[IT_AZ]
+    sa, ca = math.sin(alpha), math.cos(alpha)
+    d_falpha = -ax * ca - az * sa - p.g_mps2 * math.sin(alpha - theta)
+    d_fv = -ax * sa + az * ca + p.g_mps2 * math.cos(alpha - theta)
+    a = np.eye(N_X)
+    a[IX_AOA, IX_AOA] += dt_s * d_falpha / vg
+    a[IX_VG, IX_AOA] = dt_s * d_fv
+    return a
+
+
+def airdata_f_jac_u(dt_s: float) -> Mat:
+    """B_k = dF/du = t_s I (Wan2018 eq. 20)."""
+    return dt_s * np.eye(N_X)
+
+
+def airdata_h(x: Vec, theta_p: Vec) -> Vec:
+    """Outputs y = [V_g, V_z (up), alpha, V_c] (Wan2018 eqs. 1, 11, 15, 16).
+
+    V_z is positive up and W_z positive down, see the module docstring.
+    """
+    d = x[IX_AOA] - theta_p[IT_THETA]
+    vz_up = -theta_p[IT_VG] * math.sin(d) - x[IX_WZ]
+    cas, _ = cas_from_tas_with_derivative(tas_approx(x, theta_p), theta_p[IT_Z])
+    return np.array([x[IX_VG], vz_up, x[IX_AOA], cas])
+
+
+def airdata_h_jac_x(x: Vec, theta_p: Vec) -> Mat:
+    """C_k = dh/dx (Wan2018 eq. 23 with c_22 = 0, Remark 1)."""
+    d = x[IX_AOA] - theta_p[IT_THETA]
+    sd, cd = math.sin(d), math.cos(d)
+    vg = theta_p[IT_VG]
+    _, dcas = cas_from_tas_with_derivative(tas_approx(x, theta_p), theta_p[IT_Z])
+    cm = np.zeros((N_Y, N_X))
+    cm[IY_VG, IX_VG] = 1.0
+    cm[IY_VZ, IX_AOA] = -vg * cd
+    cm[IY_VZ, IX_WZ] = -1.0
+    cm[IY_AOA, IX_AOA] = 1.0
+    # dV_t/dalpha, dV_t/dW_x, dV_t/dW_z of eq. 11
+    cm[IY_CAS, IX_AOA] = dcas * (x[IX_WX] * sd - x[IX_WZ] * cd)
+    cm[IY_CAS, IX_WX] = -dcas * cd
+    cm[IY_CAS, IX_WZ] = -dcas * sd
+    return cm
+
+
+def airdata_initial_state(
+    aoa_rad: float, cas_mps: float, theta_p: Vec, *, wind_z_mps: float = 0.0
+) -> Vec:
+    """A first state from one set of measurements: invert eq. 11 for W_x with W_z given.
+
+    Uses the exact inverse of eq. 16 for V_t.
+    """
+    d = aoa_rad - theta_p[IT_THETA]
+    tas = tas_from_cas(cas_mps, float(theta_p[IT_Z]))
+    wx = (theta_p[IT_VG] - tas - wind_z_mps * math.sin(d)) / math.cos(d)
+    return np.array([aoa_rad, theta_p[IT_VG], wx, wind_z_mps])
+
+
+@dataclass(frozen=True, slots=True)
+class AirDataModel:
+    """The Wan2018 model bundled for the model-agnostic filters (``filters.mhe``, EKF).
+
+    Method signatures follow :class:`gcs_monitor.filters.mhe.MheModel`.
+    """
+
+    params: AirDataModelParams = AirDataModelParams()
+    n_x: int = N_X
+    n_u: int = N_U
+    n_y: int = N_Y
+
+    def f(self, x: Vec, u: Vec, theta_p: Vec, dt_s: float) -> Vec:
+        return airdata_f(x, u, theta_p, dt_s, self.params)
+
+    def f_jac_x(self, x: Vec, u: Vec, theta_p: Vec, dt_s: float) -> Mat:
+        return airdata_f_jac_x(x, theta_p, dt_s, self.params)
+
+    def f_jac_u(self, x: Vec, u: Vec, theta_p: Vec, dt_s: float) -> Mat:
+        return airdata_f_jac_u(dt_s)
+
+    def h(self, x: Vec, theta_p: Vec) -> Vec:
+        return airdata_h(x, theta_p)
+
+    def h_jac_x(self, x: Vec, theta_p: Vec) -> Mat:
+        return airdata_h_jac_x(x, theta_p)

@@ -1,0 +1,127 @@
+"""Wan2018 air-data model: equations vs hand values, Jacobians vs finite differences."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from gcs_monitor.core.atmosphere import cas_from_tas
+from gcs_monitor.core.constants import GRAVITY_STD_MPS2
+from gcs_monitor.models.airdata import (
+    AirDataModelParams,
+    airdata_derivative,
+    airdata_f,
+    airdata_f_jac_u,
+    airdata_f_jac_x,
+    airdata_h,
+    airdata_h_jac_x,
+    airdata_initial_state,
+    cas_from_tas_with_derivative,
+)
+
+P = AirDataModelParams()
+
+
+def _random_point(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    x = np.array(
+        [rng.uniform(-0.05, 0.2), rng.uniform(80, 190), rng.uniform(-30, 30), rng.uniform(-5, 5)]
+    )
+    th = np.array(
+        [
+            rng.uniform(80, 190),
+            rng.uniform(-0.1, 0.25),
+            rng.uniform(-0.1, 0.1),
+            rng.uniform(-2, 3),
+            rng.uniform(-15, -5),
+            rng.uniform(0, 10000),
+        ]
+    )
+    return x, th
+
+
+def test_level_unaccelerated_flight_is_an_equilibrium() -> None:
+    """alpha = theta, A_x = g sin(theta), A_z = -g cos(theta), q = 0: f_alpha = f_v = 0."""
+    th_rad = 0.04
+    x = np.array([th_rad, 120.0, 0.0, 0.0])
+    theta_p = np.array(
+        [
+            120.0,
+            th_rad,
+            0.0,
+            GRAVITY_STD_MPS2 * math.sin(th_rad),
+            -GRAVITY_STD_MPS2 * math.cos(th_rad),
+            1000.0,
+        ]
+    )
+    np.testing.assert_allclose(airdata_derivative(x, theta_p, P), 0.0, atol=1e-12)
+    y = airdata_h(x, theta_p)
+    assert y[1] == pytest.approx(0.0, abs=1e-12)  # no climb
+    assert y[3] == pytest.approx(cas_from_tas(120.0, 1000.0), rel=1e-12)
+
+
+def test_hand_values() -> None:
+    """A pull-up: q and normal load raise alpha_dot; headwind W_x < 0 raises V_t (eq. 11)."""
+    x = np.array([0.0, 100.0, -10.0, 2.0])
+    theta_p = np.array([100.0, 0.0, 0.05, 1.0, -2.0 * GRAVITY_STD_MPS2, 0.0])
+    xd = airdata_derivative(x, theta_p, P)
+    # f_alpha = A_z + g = -g ; alpha_dot = -g / 100 + 0.05
+    assert xd[0] == pytest.approx(-GRAVITY_STD_MPS2 / 100.0 + 0.05, rel=1e-12)
+    assert xd[1] == pytest.approx(1.0, rel=1e-12)  # A_x
+    y = airdata_h(x, theta_p)
+    assert y[1] == pytest.approx(-2.0)  # W_z = 2 m/s down -> V_z = -2 m/s (up positive)
+    assert y[3] == pytest.approx(cas_from_tas(110.0, 0.0), rel=1e-12)  # sea level: CAS = TAS
+    assert y[3] == pytest.approx(110.0, rel=1e-12)
+    xn = airdata_f(x, np.array([0.1, 0.2, 0.3, 0.4]), theta_p, 0.05, P)
+    np.testing.assert_allclose(xn, x + 0.05 * (xd + [0.1, 0.2, 0.3, 0.4]), rtol=1e-14)
+
+
+@pytest.mark.parametrize("alt_m", [0.0, 1524.0, 9000.0])
+def test_cas_matches_core_atmosphere(alt_m: float) -> None:
+    for tas in (60.0, 120.0, 190.0):
+        cas, dcas = cas_from_tas_with_derivative(tas, alt_m)
+        assert cas == pytest.approx(cas_from_tas(tas, alt_m), rel=1e-13)
+        h = 1e-4
+        fd = (cas_from_tas(tas + h, alt_m) - cas_from_tas(tas - h, alt_m)) / (2 * h)
+        assert dcas == pytest.approx(fd, rel=1e-8)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_jacobians_against_central_differences(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    x, th = _random_point(rng)
+    u = rng.standard_normal(4)
+    dt = 0.05
+    eps = np.array([1e-5, 1e-3, 1e-3, 1e-3])
+    a_fd = np.zeros((4, 4))
+    c_fd = np.zeros((4, 4))
+    for j in range(4):
+        e = np.zeros(4)
+        e[j] = eps[j]
+        a_fd[:, j] = (airdata_f(x + e, u, th, dt, P) - airdata_f(x - e, u, th, dt, P)) / (
+            2 * eps[j]
+        )
+        c_fd[:, j] = (airdata_h(x + e, th) - airdata_h(x - e, th)) / (2 * eps[j])
+    # Central differences: O(eps^2) truncation; the CAS power chain loses ~1e-14 relative,
+    # divided by eps -> ~1e-7 relative.
+    np.testing.assert_allclose(airdata_f_jac_x(x, th, dt, P), a_fd, rtol=1e-7, atol=1e-8)
+    np.testing.assert_allclose(airdata_h_jac_x(x, th), c_fd, rtol=1e-6, atol=1e-8)
+    b_fd = np.zeros((4, 4))
+    for j in range(4):
+        e = np.zeros(4)
+        e[j] = 1e-3
+        b_fd[:, j] = (airdata_f(x, u + e, th, dt, P) - airdata_f(x, u - e, th, dt, P)) / 2e-3
+    np.testing.assert_allclose(airdata_f_jac_u(dt), b_fd, atol=1e-12)
+    # Remark 1: a_12 = c_22 = 0 (V_g enters through the measured Theta)
+    assert airdata_f_jac_x(x, th, dt, P)[0, 1] == 0.0
+    assert airdata_h_jac_x(x, th)[1, 1] == 0.0
+
+
+def test_initial_state_inverts_the_output() -> None:
+    rng = np.random.default_rng(11)
+    x, th = _random_point(rng)
+    x[1] = th[0]
+    y = airdata_h(x, th)
+    x0 = airdata_initial_state(y[2], y[3], th, wind_z_mps=x[3])
+    np.testing.assert_allclose(x0, x, rtol=1e-9, atol=1e-9)
