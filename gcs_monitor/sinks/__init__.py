@@ -1,0 +1,44 @@
+"""Sinks: the only modules that import rerun or zenoh, touch files, clocks and sockets.
+
+Every sink implements the :class:`Sink` protocol. The pipeline calls ``publish`` once per Frame
+(100 Hz) per vehicle, so a sink must be cheap there: decimate plots, publish every alarm event at
+once, and never block the live path (bounded queues, counted drops).
+
+The submodules are imported lazily by their users so that ``import gcs_monitor.sinks`` stays
+fast and does not load rerun or zenoh.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any, Protocol
+
+from gcs_monitor.estimators.base import Estimate
+from gcs_monitor.fdi.events import AlarmEvent, ChannelStatus, SetStatus
+from gcs_monitor.telemetry.frame import Frame
+
+
+class Sink(Protocol):
+    """What the pipeline calls on every sink."""
+
+    def publish(
+        self,
+        frame: Frame,
+        estimates: Sequence[Estimate],
+        events: Sequence[AlarmEvent],
+        sets: Sequence[SetStatus],
+        channels: Sequence[ChannelStatus],
+    ) -> None:
+        """One Frame's worth of output; called at the Frame rate (100 Hz)."""
+        ...
+
+    def update_health(self, health: dict[str, Any]) -> None:
+        """Current alarms and link statistics (a JSON-able dict)."""
+        ...
+
+    def close(self) -> None:
+        """Flush and release resources; idempotent."""
+        ...
+
+
+__all__ = ["Sink"]
