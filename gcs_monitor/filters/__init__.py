@@ -1,0 +1,1 @@
+"""Model-agnostic estimation algorithms (no aircraft knowledge)."""

@@ -120,8 +120,13 @@ def otsekf_init(x0: Vec, P0: Mat, mu0: Vec, P_mu0: Mat) -> OtsekfState:
     n, b = x0.shape[0], mu0.shape[0]
     V0 = np.zeros((n, b))
     return OtsekfState(
-        x_bar=x0.copy(), P_bar=P0.copy(), mu=mu0.copy(), P_mu=P_mu0.copy(), V=V0,
-        x_hat=x0.copy(), P=P0.copy(),
+        x_bar=x0.copy(),
+        P_bar=P0.copy(),
+        mu=mu0.copy(),
+        P_mu=P_mu0.copy(),
+        V=V0,
+        x_hat=x0.copy(),
+        P=P0.copy(),
     )
 
 
@@ -163,8 +168,11 @@ def otsekf_step(
     L_mu, ok_mu = cho_factor_lower(P_mu_pred)
     m = y.shape[0]
     bad = OtsekfInnovation(
-        nu=np.full(m, np.nan), S=np.full((m, m), np.nan), test_ratio=np.full(m, np.nan),
-        rejected=np.zeros(m, dtype=bool), numerics_ok=False,
+        nu=np.full(m, np.nan),
+        S=np.full((m, m), np.nan),
+        test_ratio=np.full(m, np.nan),
+        rejected=np.zeros(m, dtype=bool),
+        numerics_ok=False,
     )
     if not ok_mu:
         return s, bad
@@ -218,7 +226,9 @@ def otsekf_step(
         test_ratio = nu * nu / (gate_sigma * gate_sigma * diag_c)
     # an overflowing innovation is a numerical failure too, not a huge but valid test ratio
     ok = bool(
-        np.all(np.isfinite(x_hat)) and np.all(np.isfinite(P)) and np.all(np.isfinite(mu))
+        np.all(np.isfinite(x_hat))
+        and np.all(np.isfinite(P))
+        and np.all(np.isfinite(mu))
         and np.all(np.isfinite(test_ratio))
     )
     if not ok:

@@ -87,6 +87,4 @@ def hosm_step(s: HosmState, f: Vec, lambdas: Mat, dt_s: float) -> HosmState:
     e2 = z2 - v1
     v2 = -lambdas[2] * np.sqrt(np.abs(e2)) * np.sign(e2) + z3
     v3 = -lambdas[3] * np.sign(z3 - v2)
-    return HosmState(
-        z=np.stack([z0 + v0 * dt_s, z1 + v1 * dt_s, z2 + v2 * dt_s, z3 + v3 * dt_s])
-    )
+    return HosmState(z=np.stack([z0 + v0 * dt_s, z1 + v1 * dt_s, z2 + v2 * dt_s, z3 + v3 * dt_s]))

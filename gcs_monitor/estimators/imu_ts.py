@@ -1,0 +1,271 @@
+"""IMU fault reconstruction with the ATSEKF / IOTSEKF on the GS-KM or AS-KM (Lu2016).
+
+Consumes Frames (primary IMU ``imu[cfg.imu_instance]``, ATTITUDE Euler angles, GPS velocity
+interpolated to the IMU time, latitude/altitude) and returns an Estimate with the velocity and
+attitude, the six IMU fault estimates f_hat, the corrected IMU ``u_m - f_hat`` (Lu2016 eq. 60)
+and the innovations as residuals.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from gcs_monitor.core.atmosphere import tas_from_cas
+from gcs_monitor.core.types import ChannelId, Mat, Vec
+from gcs_monitor.estimators.base import Estimate
+from gcs_monitor.filters.two_stage import (
+    TwoStageConfig,
+    TwoStageNoise,
+    TwoStageState,
+    two_stage_init,
+    two_stage_step,
+)
+from gcs_monitor.models.kinematics import AsKm, GsKm
+from gcs_monitor.telemetry.frame import Frame
+
+log = logging.getLogger(__name__)
+
+_DEG = math.pi / 180.0
+FAULT_CHANNELS = (
+    ChannelId("acc", 0, "x"), ChannelId("acc", 0, "y"), ChannelId("acc", 0, "z"),
+    ChannelId("gyro", 0, "p"), ChannelId("gyro", 0, "q"), ChannelId("gyro", 0, "r"),
+)  # fmt: skip
+
+
+@dataclass(frozen=True, slots=True)
+class Lu2016Table1:
+    """Sensor noise standard deviations (Lu2016 Table 1)."""
+
+    tas_sigma_mps: float = 0.1  # sigma_V
+    vel_sigma_mps: float = 0.01  # sigma_UN, sigma_UE, sigma_UD
+    aoa_sigma_rad: float = 0.1 * _DEG  # sigma_alpha, sigma_beta
+    euler_sigma_rad: float = 0.01 * _DEG  # sigma_phi, sigma_theta, sigma_psi
+    acc_sigma_mps2: float = 0.01  # sigma_Ax, sigma_Ay, sigma_Az
+    gyro_sigma_radps: float = 0.01 * _DEG  # sigma_p, sigma_q, sigma_r
+
+
+@dataclass(frozen=True, slots=True)
+class FaultPrior:
+    """Initial fault covariance and initial (IOTSEKF: fixed) fault random walk ``Q^f``.
+
+    Lu2016 gives no values. Choice: the random walk per sample should let the estimate follow
+    the fastest fault of Lu2016 Table 2, so its per-second rate is the largest |df/dt| there:
+    f_Az = 4 sin(0.5 pi t) -> 2 pi m/s^3; f_q = (pi/180) sin(0.5 pi (t-10)) -> 0.5 pi (pi/180)
+    rad/s^2. ``Q^f = diag((rate * dt)^2)``. With the ATSEKF this only matters for the first N
+    steps, after which eqs. 53-58 replace it. The initial fault covariance is wide (faults
+    may already be present at start-up): 5 m/s^2 and 5 deg/s, 1 sigma.
+    """
+
+    acc_rate_sigma_mps3: float = 2.0 * math.pi
+    gyro_rate_sigma_radps2: float = 0.5 * math.pi * _DEG
+    acc_init_sigma_mps2: float = 5.0
+    gyro_init_sigma_radps: float = 5.0 * _DEG
+
+
+@dataclass(frozen=True, slots=True)
+class ImuTsConfig:
+    """Estimator configuration.
+
+    Attributes
+    ----------
+    model : ``"gs"`` (GS-KM, Lu2016 eqs. 11-14) or ``"as"`` (AS-KM, eqs. 15-20)
+    adaptive : True = ATSEKF (eqs. 53-58); False = IOTSEKF with fixed ``Q^f``
+    imu_instance : which IMU of the Frame to monitor
+    max_gps_age_s, max_att_age_s, max_air_age_s : staleness limits of the slow inputs
+    max_dt_s : a larger gap between IMU samples resets the filter
+    imu_rate_hz : nominal IMU rate, sets the per-sample initial ``Q^f``
+    """
+
+    model: str = "gs"
+    adaptive: bool = True
+    imu_instance: int = 0
+    noise: Lu2016Table1 = field(default_factory=Lu2016Table1)
+    prior: FaultPrior = field(default_factory=FaultPrior)
+    filter: TwoStageConfig = field(default_factory=TwoStageConfig)
+    max_gps_age_s: float = 0.5
+    max_att_age_s: float = 0.5
+    max_air_age_s: float = 0.5
+    max_dt_s: float = 0.1
+    imu_rate_hz: float = 100.0
+
+
+def _wrap_pi(a: float) -> float:
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+class ImuTwoStageEstimator:
+    """ATSEKF (or IOTSEKF) IMU fault estimator of Lu2016 behind the Estimator protocol."""
+
+    def __init__(self, config: ImuTsConfig | None = None) -> None:
+        self.cfg = config or ImuTsConfig()
+        if self.cfg.model not in ("gs", "as"):
+            raise ValueError(f"ImuTsConfig.model must be 'gs' or 'as', got {self.cfg.model!r}")
+        self.name = "imu_ts" if self.cfg.model == "gs" else "imu_ts_as"
+        nz = self.cfg.noise
+        sig_u = [nz.acc_sigma_mps2] * 3 + [nz.gyro_sigma_radps] * 3
+        if self.cfg.model == "gs":
+            sig_y = [nz.vel_sigma_mps] * 3 + [nz.euler_sigma_rad] * 3  # Lu2016 eq. 55
+        else:
+            sig_y = [nz.tas_sigma_mps, nz.aoa_sigma_rad, nz.aoa_sigma_rad] + [
+                nz.euler_sigma_rad
+            ] * 3
+        self._noise = TwoStageNoise(
+            Q=np.diag(np.square(sig_u)), R=np.diag(np.square(sig_y))
+        )  # eq. 56
+        self._fcfg = TwoStageConfig(
+            eps0=self.cfg.filter.eps0,
+            n_iterated_steps=self.cfg.filter.n_iterated_steps,
+            max_iterations=self.cfg.filter.max_iterations,
+            adapt=self.cfg.adaptive,
+            window_n=self.cfg.filter.window_n,
+            gate_sigma=self.cfg.filter.gate_sigma,
+        )
+        self._state: TwoStageState | None = None
+        self._u_prev: Vec | None = None
+        self._t_prev_us = 0
+
+    # -- protocol ------------------------------------------------------------------------------
+    def reset(self) -> None:
+        self._state = None
+        self._u_prev = None
+
+    def step(self, frame: Frame) -> Estimate:
+        cfg = self.cfg
+        imu = frame.imu[cfg.imu_instance] if cfg.imu_instance < len(frame.imu) else None
+        if imu is None:
+            return Estimate.unavailable(self.name, frame.t_us, f"imu{cfg.imu_instance} missing")
+        if frame.euler_rad is None or frame.att_age_s > cfg.max_att_age_s:
+            return Estimate.unavailable(self.name, frame.t_us, "attitude missing or stale")
+        if not (math.isfinite(frame.lat_rad) and math.isfinite(frame.alt_msl_m)):
+            return Estimate.unavailable(self.name, frame.t_us, "latitude/altitude missing")
+        y = self._measurement(frame)
+        if y is None:
+            what = "gps velocity" if cfg.model == "gs" else "air data (cas, aoa, ssa)"
+            return Estimate.unavailable(self.name, frame.t_us, f"{what} missing or stale")
+        u_m = np.concatenate([imu.acc_frd_mps2, imu.omega_frd_radps])
+        if not np.all(np.isfinite(u_m)):
+            return Estimate.unavailable(self.name, frame.t_us, "imu sample not finite")
+        model = self._model(frame)
+        dt_s = (frame.t_us - self._t_prev_us) * 1e-6
+        if self._state is None or self._u_prev is None or not 0.0 < dt_s <= cfg.max_dt_s:
+            self._state = self._init_state(y)
+            self._u_prev, self._t_prev_us = u_m, frame.t_us
+            return self._estimate(frame.t_us, self._state, u_m, np.zeros(y.size), True)
+        s = self._state
+        y = y.copy()
+        y[5] = s.x[5] + _wrap_pi(y[5] - s.x[5])  # heading innovation across +-pi
+        new, innov = two_stage_step(s, model, self._u_prev, u_m, y, dt_s, self._noise, self._fcfg)
+        self._u_prev, self._t_prev_us = u_m, frame.t_us
+        if not innov.numerics_ok:
+            log.warning("imu_ts: numerical failure at t_us=%d, filter reset", frame.t_us)
+            self.reset()
+            est = self._estimate(frame.t_us, s, u_m, innov.nu, False)
+            return est
+        if abs(new.x[5]) > math.pi:  # keep psi in (-pi, pi]; a 2 pi shift leaves P unchanged
+            shift = np.zeros(6)
+            shift[5] = _wrap_pi(new.x[5]) - new.x[5]
+            new = replace(new, x_bar=new.x_bar + shift, x=new.x + shift)
+        self._state = new
+        return self._estimate(frame.t_us, new, u_m, innov.nu, True)
+
+    # -- helpers -------------------------------------------------------------------------------
+    def _model(self, frame: Frame) -> GsKm | AsKm:
+        if self.cfg.model == "gs":
+            return GsKm(frame.lat_rad, frame.alt_msl_m)
+        return AsKm(frame.lat_rad, frame.alt_msl_m)
+
+    def _measurement(self, frame: Frame) -> Vec | None:
+        cfg = self.cfg
+        eul = np.asarray(frame.euler_rad, dtype=np.float64)
+        if self.cfg.model == "gs":
+            v = frame.gps_vel_ned_mps
+            if v is None or frame.gps_age_s > cfg.max_gps_age_s or not np.all(np.isfinite(v)):
+                return None
+            return np.concatenate([v, eul])
+        cas, aoa, ssa = float(frame.cas_mps[0]), float(frame.aoa_rad[0]), frame.ssa_rad
+        fresh = frame.air_age_s <= cfg.max_air_age_s or (
+            frame.cas_age_s[0] <= cfg.max_air_age_s and frame.aoa_age_s[0] <= cfg.max_air_age_s
+        )
+        if (
+            not (fresh and math.isfinite(cas) and math.isfinite(aoa) and math.isfinite(ssa))
+            or cas <= 0.0
+        ):
+            return None
+        tas = tas_from_cas(cas, frame.alt_msl_m)
+        return np.concatenate([[tas, aoa, ssa], eul])
+
+    def _init_state(self, y: Vec) -> TwoStageState:
+        p = self.cfg.prior
+        if self.cfg.model == "gs":
+            x0 = y.copy()
+        else:
+            tas, aoa, ssa = y[0], y[1], y[2]
+            x0 = np.array(
+                [
+                    tas * math.cos(aoa) * math.cos(ssa),
+                    tas * math.sin(ssa),
+                    tas * math.sin(aoa) * math.cos(ssa),
+                    y[3],
+                    y[4],
+                    y[5],
+                ]
+            )
+        P0 = self._init_cov(x0)
+        Pf0 = np.diag(np.square([p.acc_init_sigma_mps2] * 3 + [p.gyro_init_sigma_radps] * 3))
+        return two_stage_init(
+            x0,
+            P0,
+            np.zeros(6),
+            Pf0,
+            self.qf0(1.0 / self.cfg.imu_rate_hz),
+            m=6,
+            window_n=self._fcfg.window_n,
+        )
+
+    def _init_cov(self, x0: Vec) -> Mat:
+        # first measurement as the estimate: its covariance is R mapped through h^{-1}
+        if self.cfg.model == "gs":
+            return self._noise.R.copy()
+        Hinv = np.linalg.solve(AsKm(0.0, 0.0).h_jac(x0), np.eye(6))
+        return Hinv @ self._noise.R @ Hinv.T
+
+    def qf0(self, dt_s: float) -> Mat:
+        """Initial (IOTSEKF: fixed) ``Q^f`` for a sample interval, see :class:`FaultPrior`."""
+        p = self.cfg.prior
+        return np.diag(
+            np.square([p.acc_rate_sigma_mps3 * dt_s] * 3 + [p.gyro_rate_sigma_radps2 * dt_s] * 3)
+        )
+
+    def _estimate(self, t_us: int, s: TwoStageState, u_m: Vec, nu: Vec, ok: bool) -> Estimate:
+        x = s.x
+        f = s.f.tolist()
+        u_hat = (u_m - s.f).tolist()  # Lu2016 eq. 60
+        if self.cfg.model == "gs":
+            states = {"vel_ned_mps": x[:3].copy(), "euler_rad": x[3:].copy()}
+            res_names: tuple[ChannelId, ...] = (
+                ChannelId("gps_vel", 0, "n"),
+                ChannelId("gps_vel", 0, "e"),
+                ChannelId("gps_vel", 0, "d"),
+            )
+        else:
+            states = {"vel_air_frd_mps": x[:3].copy(), "euler_rad": x[3:].copy()}
+            res_names = (ChannelId("tas", 0), ChannelId("aoa", 0), ChannelId("ssa", 0))
+        res_names = res_names + (
+            ChannelId("euler", 0, "phi"),
+            ChannelId("euler", 0, "theta"),
+            ChannelId("euler", 0, "psi"),
+        )
+        nul = nu.tolist()
+        return Estimate(
+            name=self.name,
+            t_us=t_us,
+            states=states,
+            faults=dict(zip(FAULT_CHANNELS, f, strict=True)),
+            residuals=dict(zip(res_names, nul, strict=True)),
+            virtual=dict(zip(FAULT_CHANNELS, u_hat, strict=True)),
+            numerics_ok=ok,
+        )

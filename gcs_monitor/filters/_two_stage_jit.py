@@ -1,0 +1,217 @@
+"""Numba kernels of the two-stage filter (Lu2016 eqs. 32-58, Q^{xf} = 0, non-iterated step).
+
+Same equations, same order as ``two_stage._step_reference``; imported lazily by
+``two_stage._kernels`` and cached on disk by numba. Cholesky solves are written out (with an
+ok flag instead of an exception) because the matrices are 6x6 and numba's LAPACK wrappers
+raise on a non-PD matrix.
+"""
+# ruff: noqa: N803, N806, E741
+# mypy: disable-error-code="no-untyped-def"
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+jit = numba.njit(cache=True, fastmath=False, nogil=True)
+
+
+@jit
+def chol(A):
+    """Lower Cholesky factor; ok False if not PD or not finite."""
+    n = A.shape[0]
+    L = np.zeros((n, n))
+    for j in range(n):
+        d = A[j, j]
+        for k in range(j):
+            d -= L[j, k] * L[j, k]
+        if not d > 0.0:  # also catches NaN
+            return L, False
+        ljj = np.sqrt(d)
+        L[j, j] = ljj
+        for i in range(j + 1, n):
+            v = A[i, j]
+            for k in range(j):
+                v -= L[i, k] * L[j, k]
+            L[i, j] = v / ljj
+    return L, True
+
+
+@jit
+def chol_solve(L, B):
+    """Solve (L L^T) X = B."""
+    n, r = B.shape
+    X = B.copy()
+    for c in range(r):
+        for i in range(n):
+            v = X[i, c]
+            for k in range(i):
+                v -= L[i, k] * X[k, c]
+            X[i, c] = v / L[i, i]
+        for i in range(n - 1, -1, -1):
+            v = X[i, c]
+            for k in range(i + 1, n):
+                v -= L[k, i] * X[k, c]
+            X[i, c] = v / L[i, i]
+    return X
+
+
+@jit
+def inv_general(A):
+    """Inverse by Gauss-Jordan with partial pivoting (eq. 57 needs (H Gamma)^{-1})."""
+    n = A.shape[0]
+    M = A.copy()
+    X = np.eye(n)
+    for c in range(n):
+        p = c
+        for i in range(c + 1, n):
+            if abs(M[i, c]) > abs(M[p, c]):
+                p = i
+        if M[p, c] == 0.0:
+            return X, False
+        if p != c:
+            for j in range(n):
+                M[c, j], M[p, j] = M[p, j], M[c, j]
+                X[c, j], X[p, j] = X[p, j], X[c, j]
+        piv = M[c, c]
+        for j in range(n):
+            M[c, j] /= piv
+            X[c, j] /= piv
+        for i in range(n):
+            if i != c:
+                fct = M[i, c]
+                if fct != 0.0:
+                    for j in range(n):
+                        M[i, j] -= fct * M[c, j]
+                        X[i, j] -= fct * X[c, j]
+    return X, True
+
+
+@jit
+def joseph(P, K, H, R):
+    A = np.eye(P.shape[0]) - K @ H
+    Pn = A @ P @ A.T + K @ R @ K.T
+    return 0.5 * (Pn + Pn.T)
+
+
+@jit
+def predict(F, G, dt, V, Pf, Qf, f, P_bar, Q):
+    n = F.shape[0]
+    I = np.eye(n)
+    A = F * dt
+    A2 = A @ A
+    A3 = A2 @ A
+    Phi = I + A + A2 * 0.5 + A3 * (1.0 / 6.0)  # eq. 33
+    Gam = ((I + A * 0.5 + A2 * (1.0 / 6.0) + A3 * (1.0 / 24.0)) * dt) @ G  # eq. 34
+    Ubar = Phi @ V + Gam  # eq. 47
+    Pf_pred = Pf + Qf  # eq. 41
+    Lf, ok = chol(Pf_pred)
+    if not ok:
+        return False, Gam, Ubar, np.zeros(n), P_bar, Pf_pred
+    W = -(Ubar @ Qf)  # Qxf - Ubar Qf with Qxf = 0
+    U = Ubar + chol_solve(Lf, np.ascontiguousarray(W.T)).T  # eq. 49
+    Qbar = Gam @ Q @ Gam.T - U @ W.T  # eq. 46
+    ubar = (Ubar - U) @ f  # eq. 45
+    Pp = Phi @ P_bar @ Phi.T + Qbar  # eq. 32
+    return True, Gam, np.ascontiguousarray(U), ubar, 0.5 * (Pp + Pp.T), Pf_pred
+
+
+@jit
+def update(x_pred, P_pred, hx, H, y, R, U, Pf_pred, f, gamma2, k, adapt, Gam, Q, Qf, dt, gate):
+    m = y.shape[0]
+    b = f.shape[0]
+    PHt = P_pred @ H.T
+    Sx = H @ PHt + R
+    L, ok = chol(Sx)
+    nan_m = np.full(m, np.nan)
+    if not ok:
+        return (
+            False,
+            x_pred,
+            P_pred,
+            f,
+            Pf_pred,
+            U,
+            x_pred,
+            P_pred,
+            gamma2,
+            Qf,
+            y - hx,
+            nan_m,
+            nan_m,
+        )
+    K = chol_solve(L, np.ascontiguousarray(PHt.T)).T  # eq. 36
+    K = np.ascontiguousarray(K)
+    x_bar = x_pred + K @ (y - hx)  # eqs. 37-38 (eta1 = x_pred: no iteration)
+    P_bar = joseph(P_pred, K, H, R)  # eq. 39
+    S = H @ U  # eq. 48
+    PfSt = Pf_pred @ S.T
+    Sig = Sx + S @ PfSt
+    gamma = y - hx - S @ f  # eq. 43 innovation
+    s_diag = np.empty(m)
+    for i in range(m):
+        s_diag[i] = Sig[i, i]
+    Lg, ok = chol(Sig)
+    if not ok or not np.all(np.isfinite(gamma)):
+        return (
+            False,
+            x_pred,
+            P_pred,
+            f,
+            Pf_pred,
+            U,
+            x_pred,
+            P_pred,
+            gamma2,
+            Qf,
+            gamma,
+            s_diag,
+            nan_m,
+        )
+    ratio = gamma * gamma / (gate * gate * s_diag)
+    Kf = np.ascontiguousarray(chol_solve(Lg, np.ascontiguousarray(PfSt.T)).T)  # eq. 42
+    f_new = f + Kf @ gamma  # eq. 43
+    Pf_new = joseph(Pf_pred, Kf, S, Sx)  # eq. 44, Joseph form
+    V = U - K @ S  # eq. 50
+    x_hat = x_bar + V @ f_new  # eq. 51
+    Px = P_bar + V @ Pf_new @ V.T  # eq. 52
+    g2 = gamma2.copy()
+    nwin = g2.shape[0]
+    g2[k % nwin, :] = gamma * gamma
+    Qf_next = Qf
+    if adapt and k + 1 >= nwin:  # eqs. 53, 57, 58
+        HG = H @ Gam
+        HGQ = HG @ Q
+        A, ok_inv = inv_general(HG)
+        Qf_next = np.zeros((b, b))
+        if ok_inv:
+            qt = np.empty(m)
+            for i in range(m):
+                cr = 0.0
+                for j in range(nwin):
+                    cr += g2[j, i]
+                q = 0.0
+                for j in range(m):
+                    q += HGQ[i, j] * HG[i, j]
+                qt[i] = max(cr / nwin - q / dt - R[i, i], 0.0)
+            for i in range(b):
+                acc = 0.0
+                for j in range(m):
+                    acc += A[i, j] * A[i, j] * qt[j]
+                Qf_next[i, i] = acc * dt * dt
+    ok = np.all(np.isfinite(x_hat)) and np.all(np.isfinite(Px)) and np.all(np.isfinite(f_new))
+    return (
+        ok,
+        x_bar,
+        P_bar,
+        f_new,
+        Pf_new,
+        np.ascontiguousarray(V),
+        x_hat,
+        Px,
+        g2,
+        Qf_next,
+        gamma,
+        s_diag,
+        ratio,
+    )

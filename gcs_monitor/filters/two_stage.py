@@ -1,0 +1,437 @@
+"""Iterated optimal two-stage EKF (IOTSEKF) and its adaptive version (ATSEKF), Lu2016 sec. 3.1.
+
+The filter estimates a state x and an input fault f (random walk, Lu2016 sec. 3.1) with two
+coupled filters: a bias-free filter (eqs. 31-39), a bias filter (eqs. 40-44), the coupling
+equations (45-50) and the blend (51-52). The ATSEKF adapts ``Q^f`` by covariance matching
+(eqs. 53-58). It knows nothing about aircraft; the model object supplies the propagation,
+the Jacobians and the output function (see :class:`TwoStageModel`).
+
+Choices where the printed text is ambiguous (each is marked ``# Lu2016 note`` below and
+explained in docs/papers-notes.md):
+
+1. F and G (eq. 34) are evaluated at the blended estimate ``x_hat_{k-1|k-1}`` with the
+   fault-corrected input ``u_m - f_hat``, the point an augmented-state EKF would use; the
+   print says ``x_bar_{k-1|k-1}``. Identical for linear models.
+2. Gamma (eq. 34) is ``int_0^dt exp(F s) ds G`` (the model's job; see kinematics.discretise).
+3. The innovation gamma_j of eq. 54 is printed as ``y - h(Phi x_hat + Gamma f_hat)``, which
+   drops the input term of a nonlinear model. We use the bias-filter innovation of eq. 43,
+   ``y - h(x_bar_{k|k-1}) - S_k f_hat_{k|k-1}``, which to first order is
+   ``y - h(x_bar_{k|k-1} + U_k f_hat)`` = y minus the output of the full-state prediction
+   (two-stage identity ``x_hat_{k|k-1} = x_bar_{k|k-1} + U_k f_hat``).
+4. Eq. 53 divides ``H Gamma Q Gamma^T H^T`` by dt and eq. 57 multiplies by dt^2; both kept as
+   printed. Only the diagonal of C_r is needed because only diag(Q_hat) is used (eq. 58).
+5. The Q^f adaptation starts once the window holds N innovations; before, Q^f keeps its
+   initial value.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Protocol
+
+import numpy as np
+
+from gcs_monitor.core.types import Mat, Vec
+from gcs_monitor.filters.covariance import (
+    all_finite,
+    cho_factor_lower,
+    cho_solve_lower,
+    eye,
+    gain,
+    joseph_update,
+    solve_general,
+    symmetrise,
+)
+from gcs_monitor.filters.ekf import Innovation, make_innovation
+
+
+class TwoStageModel(Protocol):
+    """What the two-stage filter needs from a model ``x_dot = f(x, u - f) `` , ``y = h(x)``."""
+
+    def propagate(self, x: Vec, u0: Vec, u1: Vec, dt_s: float) -> Vec:
+        """``x + int f(x, u, 0) dt`` over one step, input from u0 to u1 (Lu2016 eq. 31)."""
+        ...
+
+    def jacobians(self, x: Vec, u: Vec) -> tuple[Mat, Mat]:
+        """``(F, G) = (df/dx, df/df)`` at (x, u) (Lu2016 eqs. 13, 34)."""
+        ...
+
+    def h(self, x: Vec) -> Vec: ...
+
+    def h_jac(self, x: Vec) -> Mat: ...
+
+
+class Discretiser(Protocol):
+    def __call__(self, F: Mat, G: Mat, dt_s: float) -> tuple[Mat, Mat]: ...
+
+
+def discretise_series(F: Mat, G: Mat, dt_s: float) -> tuple[Mat, Mat]:
+    """Transition ``Phi = exp(F dt)`` and input matrix ``Gamma = int_0^dt exp(F s) ds G``.
+
+    Lu2016 eqs. 33-34, series truncated after ``(F dt)^3 / 3!``: |F dt| ~ 1e-2 at 100 Hz, so
+    the first neglected term is ~1e-9 relative. Eq. 34 prints ``Gamma = int Phi G dt``; the
+    integrand is ``exp(F s)`` (s from 0 to dt), not the constant ``Phi`` -- we use the former.
+    """
+    A = F * dt_s
+    A2 = A @ A
+    A3 = A2 @ A
+    eye_n = eye(F.shape[0])
+    phi = eye_n + A + A2 * (1.0 / 2.0) + A3 * (1.0 / 6.0)
+    psi = eye_n + A * (1.0 / 2.0) + A2 * (1.0 / 6.0) + A3 * (1.0 / 24.0)  # sum A^k / (k+1)!
+    return phi, (psi * dt_s) @ G
+
+
+@dataclass(frozen=True, slots=True)
+class TwoStageNoise:
+    """Noise covariances of the two-stage filter.
+
+    Attributes
+    ----------
+    Q : (b, b) input (IMU) noise covariance, Lu2016 eq. 56
+    R : (m, m) measurement noise covariance, Lu2016 eq. 55
+    Qxf : (n, b) state/fault noise cross covariance; None means zero (Lu2016 sec. 3.1, after
+        its ref. [30])
+    """
+
+    Q: Mat
+    R: Mat
+    Qxf: Mat | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class TwoStageConfig:
+    """Algorithm settings (Lu2016 sec. 3.1).
+
+    Attributes
+    ----------
+    eps0 : iteration stop threshold epsilon_0 (Lu2016: 1e-8)
+    n_iterated_steps : the iterated update runs only in the first steps (Lu2016: ten)
+    max_iterations : cap on the iterations of one step (not given in Lu2016)
+    adapt : True = ATSEKF (covariance matching of Q^f, eqs. 53-58); False = IOTSEKF
+    window_n : moving-window size N of eq. 53 (Lu2016: 10)
+    gate_sigma : gate of the normalised innovation test ratio (reporting only)
+    compiled : use the numba kernels (:func:`_kernels`) for the non-iterated steps when numba
+        is installed; same equations as the numpy reference path, a few times faster
+    """
+
+    eps0: float = 1.0e-8
+    n_iterated_steps: int = 10
+    max_iterations: int = 20
+    adapt: bool = True
+    window_n: int = 10
+    gate_sigma: float = 3.0
+    compiled: bool = True
+
+
+@dataclass(frozen=True, slots=True)
+class TwoStageState:
+    """Two-stage filter state after step k.
+
+    Attributes
+    ----------
+    x_bar, P_bar : (n,), (n, n) bias-free estimate and covariance (eqs. 38-39)
+    f, Pf : (b,), (b, b) fault estimate and covariance (eqs. 43-44)
+    V : (n, b) blending matrix (eq. 50)
+    Qf : (b, b) fault random-walk covariance used by the next prediction (eq. 41 / 57)
+    x, Px : (n,), (n, n) blended state estimate and covariance (eqs. 51-52)
+    k : number of completed steps
+    gamma2 : (N, m) squared innovations of the last N steps (ring buffer, eq. 53)
+    """
+
+    x_bar: Vec
+    P_bar: Mat
+    f: Vec
+    Pf: Mat
+    V: Mat
+    Qf: Mat
+    x: Vec
+    Px: Mat
+    k: int
+    gamma2: Mat
+
+
+def two_stage_init(
+    x0: Vec, P0: Mat, f0: Vec, Pf0: Mat, Qf0: Mat, *, m: int, window_n: int
+) -> TwoStageState:
+    """Initial state with zero state/fault cross covariance (V_0 = 0)."""
+    n, b = x0.size, f0.size
+    return TwoStageState(
+        x_bar=x0.copy(),
+        P_bar=P0.copy(),
+        f=f0.copy(),
+        Pf=Pf0.copy(),
+        V=np.zeros((n, b)),
+        Qf=Qf0.copy(),
+        x=x0.copy(),
+        Px=P0.copy(),
+        k=0,
+        gamma2=np.zeros((window_n, m)),
+    )
+
+
+def _fail(s: TwoStageState, nu: Vec, S: Mat, gate: float) -> tuple[TwoStageState, Innovation]:
+    return s, make_innovation(nu, S, gate, False)
+
+
+def two_stage_step(
+    s: TwoStageState,
+    model: TwoStageModel,
+    u_prev: Vec,
+    u_now: Vec,
+    y: Vec,
+    dt_s: float,
+    noise: TwoStageNoise,
+    cfg: TwoStageConfig,
+    *,
+    discretise: Discretiser | None = None,
+) -> tuple[TwoStageState, Innovation]:
+    """One IOTSEKF / ATSEKF step from t_{k-1} to t_k (Lu2016 eqs. 31-58).
+
+    Parameters
+    ----------
+    s : state at k-1
+    model : model at this step's parameters
+    u_prev, u_now : (b,) measured inputs u_m at t_{k-1} and t_k
+    y : (m,) measurement at t_k
+    dt_s : t_k - t_{k-1} (s)
+    noise : Q, R, Q^{xf}
+    cfg : algorithm settings
+    discretise : (F, G, dt) -> (Phi, Gamma); None = :func:`discretise_series` (eqs. 33-34)
+
+    Returns
+    -------
+    The state at k and the innovation record of the bias-filter innovation (eq. 43) with the
+    full innovation covariance ``H P_bar H^T + R + S P^f S^T``. On a numerical failure the
+    input state is returned unchanged with ``numerics_ok = False``; the caller resets.
+    """
+    iterate = s.k < cfg.n_iterated_steps
+    if (
+        cfg.compiled
+        and discretise is None
+        and noise.Qxf is None
+        and not iterate
+        and _kernels() is not None
+    ):
+        return _step_compiled(s, model, u_prev, u_now, y, dt_s, noise, cfg)
+    return _step_reference(
+        s, model, u_prev, u_now, y, dt_s, noise, cfg, discretise or discretise_series
+    )
+
+
+def _step_compiled(
+    s: TwoStageState,
+    model: TwoStageModel,
+    u_prev: Vec,
+    u_now: Vec,
+    y: Vec,
+    dt_s: float,
+    noise: TwoStageNoise,
+    cfg: TwoStageConfig,
+) -> tuple[TwoStageState, Innovation]:
+    """The non-iterated step through the numba kernels; same equations as the reference."""
+    _jit = _kernels()
+    assert _jit is not None
+    F, G = model.jacobians(s.x, u_prev - s.f)  # Lu2016 note 1
+    xb_prop = model.propagate(s.x_bar, u_prev, u_now, dt_s)  # eq. 31 without ubar
+    ok, Gam, U, ubar, P_pred, Pf_pred = _jit.predict(
+        F, G, dt_s, s.V, s.Pf, s.Qf, s.f, s.P_bar, noise.Q
+    )
+    m = y.size
+    if not ok:
+        return _fail(s, np.full(m, np.nan), np.full((m, m), np.nan), cfg.gate_sigma)
+    x_pred = xb_prop + ubar  # eq. 31
+    hx = model.h(x_pred)
+    H = model.h_jac(x_pred)
+    out = _jit.update(
+        x_pred,
+        P_pred,
+        hx,
+        H,
+        y,
+        noise.R,
+        U,
+        Pf_pred,
+        s.f,
+        s.gamma2,
+        s.k,
+        cfg.adapt,
+        Gam,
+        noise.Q,
+        s.Qf,
+        dt_s,
+        cfg.gate_sigma,
+    )
+    ok, x_bar, P_bar, f_new, Pf_new, V, x_hat, Px, gamma2, Qf_next, nu, s_diag, ratio = out
+    innov = Innovation(nu=nu, S_diag=s_diag, test_ratio=ratio, numerics_ok=ok)
+    if not ok:
+        return s, innov
+    return (
+        TwoStageState(
+            x_bar=x_bar,
+            P_bar=P_bar,
+            f=f_new,
+            Pf=Pf_new,
+            V=V,
+            Qf=Qf_next,
+            x=x_hat,
+            Px=Px,
+            k=s.k + 1,
+            gamma2=gamma2,
+        ),
+        innov,
+    )
+
+
+def _step_reference(
+    s: TwoStageState,
+    model: TwoStageModel,
+    u_prev: Vec,
+    u_now: Vec,
+    y: Vec,
+    dt_s: float,
+    noise: TwoStageNoise,
+    cfg: TwoStageConfig,
+    discretise: Discretiser,
+) -> tuple[TwoStageState, Innovation]:
+    """Plain numpy implementation, equation by equation (the reference for the kernels)."""
+    f_hat = s.f
+    # Lu2016 note 1: linearise at the blended estimate with the corrected input
+    F, G = model.jacobians(s.x, u_prev - f_hat)
+    Phi, Gam = discretise(F, G, dt_s)
+    Qf = s.Qf
+    Ubar = Phi @ s.V + Gam  # eq. 47
+    Pf_pred = s.Pf + Qf  # eq. 41
+    Lf, ok = cho_factor_lower(Pf_pred)
+    m = y.size
+    if not ok:
+        return _fail(s, np.full(m, np.nan), np.full((m, m), np.nan), cfg.gate_sigma)
+    # eq. 49: U = Ubar + (Qxf - Ubar Qf) Pf_pred^{-1}
+    W = -(Ubar @ Qf) if noise.Qxf is None else noise.Qxf - Ubar @ Qf
+    U = Ubar + cho_solve_lower(Lf, W.T).T
+    GQG = Gam @ noise.Q @ Gam.T
+    Qbar = GQG - U @ W.T  # eq. 46 with W = Qxf - Ubar Qf
+    if noise.Qxf is not None:
+        Qbar = Qbar - noise.Qxf @ Ubar.T
+    ubar = (Ubar - U) @ f_hat  # eq. 45
+    x_pred = model.propagate(s.x_bar, u_prev, u_now, dt_s) + ubar  # eq. 31
+    P_pred = symmetrise(Phi @ s.P_bar @ Phi.T + Qbar)  # eq. 32
+
+    # bias-free measurement update, iterated in the first steps (eqs. 35-38)
+    R = noise.R
+    eta1 = x_pred
+    hx_pred = model.h(x_pred)
+    hx = hx_pred
+    H = model.h_jac(eta1)
+    iterate = s.k < cfg.n_iterated_steps
+    for _it in range(cfg.max_iterations if iterate else 1):
+        PHt = P_pred @ H.T
+        Sx = H @ PHt + R
+        K, ok = gain(PHt, Sx)  # eq. 36
+        if not ok:
+            return _fail(s, y - hx_pred, Sx, cfg.gate_sigma)
+        eta2 = x_pred + K @ (y - hx - H @ (x_pred - eta1))  # eq. 37
+        if not iterate:
+            break
+        norm2 = float(np.linalg.norm(eta2))
+        eps = float(np.linalg.norm(eta2 - eta1)) / norm2 if norm2 > 0.0 else 0.0
+        if eps <= cfg.eps0:
+            break
+        eta1 = eta2
+        hx = model.h(eta1)
+        H = model.h_jac(eta1)
+    x_bar = eta2  # eq. 38
+    P_bar = joseph_update(P_pred, K, H, R)  # eq. 39
+
+    # bias filter (eqs. 40-44)
+    S = H @ U  # eq. 48
+    PfSt = Pf_pred @ S.T
+    Sig = Sx + S @ PfSt
+    Kf, ok = gain(PfSt, Sig)  # eq. 42
+    gamma = y - hx_pred - S @ f_hat  # eq. 43 innovation (= gamma of eq. 54, Lu2016 note 3)
+    innov = make_innovation(gamma, Sig, cfg.gate_sigma, ok)
+    if not innov.numerics_ok:
+        return s, innov
+    f_new = f_hat + Kf @ gamma  # eq. 43
+    Pf_new = joseph_update(Pf_pred, Kf, S, Sx)  # eq. 44 in Joseph form (R_eff = Sx)
+    V = U - K @ S  # eq. 50
+    x_hat = x_bar + V @ f_new  # eq. 51
+    Px = P_bar + V @ Pf_new @ V.T  # eq. 52
+
+    gamma2 = s.gamma2.copy()
+    nwin = gamma2.shape[0]
+    gamma2[s.k % nwin] = gamma * gamma
+    k = s.k + 1
+    Qf_next = Qf
+    if cfg.adapt and k >= nwin:
+        Qf_next = adapt_qf(gamma2, H, Gam, noise.Q, R, dt_s)
+    if not (all_finite(x_hat) and all_finite(Px) and all_finite(f_new)):
+        return s, replace(innov, numerics_ok=False)
+    return (
+        TwoStageState(
+            x_bar=x_bar,
+            P_bar=P_bar,
+            f=f_new,
+            Pf=Pf_new,
+            V=V,
+            Qf=Qf_next,
+            x=x_hat,
+            Px=Px,
+            k=k,
+            gamma2=gamma2,
+        ),
+        innov,
+    )
+
+
+def adapt_qf(gamma2: Mat, H: Mat, Gam: Mat, Q: Mat, R: Mat, dt_s: float) -> Mat:
+    """Covariance-matching update of ``Q^f`` (Lu2016 eqs. 53, 57, 58).
+
+    ``Q_hat = C_r - H Gamma Q Gamma^T H^T / dt - R`` (eq. 53, diagonal only),
+    ``Q_tilde = diag(max(0, Q_hat_jj))`` (eq. 58),
+    ``Q^f = diag( (H Gamma)^{-1} Q_tilde (H Gamma)^{-T} dt^2 )`` (eq. 57, main diagonal).
+
+    Parameters
+    ----------
+    gamma2 : (N, m) squared innovations of the window (diag of gamma gamma^T)
+    H : (m, n) output Jacobian, square here (eq. 57 inverts it)
+    Gam : (n, b) discrete fault/noise input matrix, square here
+    Q, R : input and measurement noise covariances
+    dt_s : sample interval (s)
+    """
+    Cr = gamma2.sum(axis=0) / gamma2.shape[0]
+    HG = H @ Gam
+    q_hat = Cr - ((HG @ Q) * HG).sum(axis=1) / dt_s - R.diagonal()  # eq. 53 (diagonal)
+    q_tilde = np.maximum(q_hat, 0.0)  # eq. 58
+    A, ok = solve_general(HG, eye(HG.shape[0]))  # (H Gamma)^{-1}, general LU solve
+    if not ok:
+        return np.zeros((Gam.shape[1], Gam.shape[1]))
+    return np.diag((A * A) @ q_tilde * (dt_s * dt_s))  # eq. 57, main diagonal
+
+
+# ---------------------------------------------------------------------------------------------
+# Compiled kernels (numba, filters/_two_stage_jit.py), imported lazily so that importing this
+# module stays cheap.
+# They implement exactly the equations of _step_reference for Q^{xf} = 0 and the built-in
+# series discretisation; tests/gcs_monitor/filters/test_two_stage.py checks both paths agree.
+# ---------------------------------------------------------------------------------------------
+
+
+class _Kernels(Protocol):
+    def predict(self, *args: object) -> tuple: ...  # type: ignore[type-arg]
+
+    def update(self, *args: object) -> tuple: ...  # type: ignore[type-arg]
+
+
+_KERNELS: list[object] = []  # [] = not tried yet, [None] = numba unavailable, [ns] = built
+
+
+def _kernels() -> _Kernels | None:
+    """The numba kernels module, imported on first use (None if numba is not installed)."""
+    if not _KERNELS:
+        try:
+            from gcs_monitor.filters import _two_stage_jit
+        except ImportError:  # pragma: no cover - numba missing
+            _KERNELS.append(None)
+        else:
+            _KERNELS.append(_two_stage_jit)
+    return _KERNELS[0]  # type: ignore[return-value]
