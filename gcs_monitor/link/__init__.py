@@ -1,0 +1,1 @@
+"""Bytes in, decoded MAVLink messages out: transports, pymavlink decoding, link statistics."""

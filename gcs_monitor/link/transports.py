@@ -1,0 +1,369 @@
+"""Byte sources from a URL: udpin/udpout/tcp/serial, a .tlog file, or Zenoh raw frames.
+
+Every source is an iterator of ``(bytes, wall_time_s)`` chunks. Live sources read on a thread
+into a bounded queue: when input arrives faster than it is processed the oldest chunks are
+dropped and counted (``dropped_chunks``), so memory stays bounded.
+"""
+
+from __future__ import annotations
+
+import collections
+import json
+import mmap
+import socket
+import struct
+import threading
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+TLOG_HEADER = struct.Struct(">Q")
+MAV1_MAGIC = 0xFE
+MAV2_MAGIC = 0xFD
+MAV2_SIGNED = 0x01
+
+
+class SourceError(ValueError):
+    """A source URL cannot be opened; the message says why and what is expected."""
+
+
+class _BoundedQueue:
+    """Thread-safe drop-oldest queue of chunks with counted drops."""
+
+    def __init__(self, max_chunks: int) -> None:
+        self._q: collections.deque[tuple[bytes, float]] = collections.deque()
+        self._max = max_chunks
+        self._cv = threading.Condition()
+        self.dropped_chunks = 0
+        self.dropped_bytes = 0
+
+    def put(self, item: tuple[bytes, float]) -> None:
+        with self._cv:
+            if len(self._q) >= self._max:
+                old = self._q.popleft()
+                self.dropped_chunks += 1
+                self.dropped_bytes += len(old[0])
+            self._q.append(item)
+            self._cv.notify()
+
+    def get(self, timeout: float) -> tuple[bytes, float] | None:
+        with self._cv:
+            if not self._q and not self._cv.wait_for(lambda: bool(self._q), timeout):
+                return None
+            return self._q.popleft()
+
+
+class Source:
+    """Base: iterate chunks; ``close()`` stops the reader; drop counters for health."""
+
+    dropped_chunks = 0
+    dropped_bytes = 0
+    resync_bytes = 0
+    total_bytes: int | None = None
+    position = 0
+
+    def __iter__(self) -> Iterator[tuple[bytes, float]]:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def close(self) -> None:
+        pass
+
+    def write(self, data: bytes) -> None:
+        """Send bytes back over the link (requests, heartbeats); no-op where impossible."""
+
+
+class _ThreadedSource(Source):
+    def __init__(self, max_chunks: int, idle_timeout_s: float | None) -> None:
+        self._queue = _BoundedQueue(max_chunks)
+        self._stop = threading.Event()
+        self._idle = idle_timeout_s
+        self._thread = threading.Thread(target=self._run, daemon=True)
+
+    def _start(self) -> None:
+        self._thread.start()
+
+    def _run(self) -> None:  # pragma: no cover - overridden
+        raise NotImplementedError
+
+    @property
+    def dropped_chunks(self) -> int:  # type: ignore[override]
+        return self._queue.dropped_chunks
+
+    @property
+    def dropped_bytes(self) -> int:  # type: ignore[override]
+        return self._queue.dropped_bytes
+
+    def __iter__(self) -> Iterator[tuple[bytes, float]]:
+        last = time.monotonic()
+        while not self._stop.is_set():
+            item = self._queue.get(0.1)
+            if item is None:
+                if self._idle is not None and time.monotonic() - last > self._idle:
+                    return
+                continue
+            last = time.monotonic()
+            yield item
+
+    def close(self) -> None:
+        self._stop.set()
+
+
+class UdpSource(_ThreadedSource):
+    """``udpin:HOST:PORT`` (bind and listen) or ``udpout:HOST:PORT`` (send first, then read)."""
+
+    def __init__(self, host: str, port: int, *, listen: bool, max_chunks: int = 20_000,
+                 idle_timeout_s: float | None = None) -> None:
+        super().__init__(max_chunks, idle_timeout_s)
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4 << 20)
+        self._peer: tuple[str, int] | None = None
+        try:
+            if listen:
+                self.sock.bind((host, port))
+            else:
+                self._peer = (host, port)
+                self.sock.bind(("0.0.0.0", 0))
+        except OSError as exc:
+            raise SourceError(f"cannot bind UDP {host}:{port}: {exc}") from None
+        self.sock.settimeout(0.1)
+        self._start()
+
+    def _run(self) -> None:
+        if self._peer is not None:  # udpout: a heartbeat-sized hello opens the path
+            try:
+                self.sock.sendto(b"\x00", self._peer)
+            except OSError:
+                pass
+        while not self._stop.is_set():
+            try:
+                data, addr = self.sock.recvfrom(65535)
+            except TimeoutError:
+                continue
+            except OSError:
+                return
+            if self._peer is None:
+                self._peer = addr
+            self._queue.put((data, time.time()))
+
+    def write(self, data: bytes) -> None:
+        if self._peer is not None:
+            try:
+                self.sock.sendto(data, self._peer)
+            except OSError:
+                pass
+
+    def close(self) -> None:
+        super().close()
+        self._thread.join(timeout=1.0)
+        self.sock.close()
+
+
+class TcpSource(_ThreadedSource):
+    """``tcp:HOST:PORT``: connect as a client (as to SITL or a telemetry server)."""
+
+    def __init__(self, host: str, port: int, *, max_chunks: int = 20_000,
+                 idle_timeout_s: float | None = None) -> None:
+        super().__init__(max_chunks, idle_timeout_s)
+        try:
+            self.sock = socket.create_connection((host, port), timeout=5.0)
+        except OSError as exc:
+            raise SourceError(f"cannot connect to tcp:{host}:{port}: {exc}") from None
+        self.sock.settimeout(0.1)
+        self._start()
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            try:
+                data = self.sock.recv(65536)
+            except TimeoutError:
+                continue
+            except OSError:
+                return
+            if not data:
+                self._stop.set()
+                return
+            self._queue.put((data, time.time()))
+
+    def write(self, data: bytes) -> None:
+        try:
+            self.sock.sendall(data)
+        except OSError:
+            pass
+
+    def close(self) -> None:
+        super().close()
+        self._thread.join(timeout=1.0)
+        self.sock.close()
+
+
+class SerialSource(_ThreadedSource):
+    """``/dev/ttyX[:BAUD]`` through pyserial (optional dependency)."""
+
+    def __init__(self, device: str, baud: int, *, max_chunks: int = 20_000) -> None:
+        super().__init__(max_chunks, None)
+        try:
+            import serial  # type: ignore[import-untyped]
+        except ImportError:
+            raise SourceError("serial links need pyserial: pip install pyserial") from None
+        try:
+            self.port = serial.Serial(device, baud, timeout=0.1)
+        except Exception as exc:
+            raise SourceError(f"cannot open serial {device}: {exc}") from None
+        self._start()
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            try:
+                data = self.port.read(4096)
+            except Exception:
+                return
+            if data:
+                self._queue.put((bytes(data), time.time()))
+
+    def close(self) -> None:
+        super().close()
+        self._thread.join(timeout=1.0)
+        self.port.close()
+
+
+class ZenohSource(_ThreadedSource):
+    """``zenoh:KEYEXPR[@ENDPOINT,...]``: raw MAVLink frames published on a key expression.
+
+    Peer mode, multicast scouting off, connecting to the given endpoints (default
+    ``tcp/127.0.0.1:7447``). The session is always closed (stack-notes sec. 3).
+    """
+
+    def __init__(self, keyexpr: str, endpoints: list[str], *, max_chunks: int = 20_000,
+                 idle_timeout_s: float | None = None) -> None:
+        super().__init__(max_chunks, idle_timeout_s)
+        import zenoh
+
+        conf = zenoh.Config()
+        conf.insert_json5("mode", '"peer"')
+        conf.insert_json5("scouting/multicast/enabled", "false")
+        conf.insert_json5("scouting/gossip/enabled", "false")
+        conf.insert_json5("connect/endpoints", json.dumps(endpoints))
+        self._session = zenoh.open(conf)
+        self._sub = self._session.declare_subscriber(
+            keyexpr, lambda s: self._queue.put((bytes(s.payload.to_bytes()), time.time())))
+
+    def _run(self) -> None:  # callbacks deliver; nothing to poll
+        pass
+
+    def close(self) -> None:
+        super().close()
+        try:
+            self._sub.undeclare()
+        finally:
+            self._session.close()
+
+
+class TlogSource(Source):
+    """A .tlog: 8-byte big-endian µs timestamp + one raw packet per record.
+
+    Records are walked by their MAVLink lengths; a record whose magic byte is wrong is skipped
+    byte by byte (counted in ``resync_bytes``); a truncated tail ends the file cleanly.
+    Packets are batched into chunks of about ``chunk_bytes`` to keep per-call overhead low.
+
+    Parameters
+    ----------
+    speed : replay speed factor against the recorded timestamps (None: as fast as possible)
+    """
+
+    def __init__(self, path: Path, *, speed: float | None = None, chunk_bytes: int = 16384,
+                 on_progress: Callable[[int, int], None] | None = None) -> None:
+        self.path = Path(path)
+        if not self.path.exists():
+            raise SourceError(f"{self.path}: no such file")
+        self.speed = speed
+        self.chunk_bytes = chunk_bytes
+        self.total_bytes = self.path.stat().st_size
+        self.on_progress = on_progress
+        self.resync_bytes = 0
+        self.position = 0
+
+    def __iter__(self) -> Iterator[tuple[bytes, float]]:
+        if self.total_bytes == 0:
+            return
+        with open(self.path, "rb") as fh, mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as mm:
+            yield from self._walk(mm)
+
+    def _walk(self, buf: Any) -> Iterator[tuple[bytes, float]]:
+        n = len(buf)
+        p = 0
+        parts: list[bytes] = []
+        size = 0
+        t_rec = 0.0
+        t0_rec: float | None = None
+        t0_wall = time.monotonic()
+        unpack = TLOG_HEADER.unpack_from
+        while p + 9 <= n:
+            magic = buf[p + 8]
+            if magic == MAV2_MAGIC:
+                if p + 11 > n:
+                    break
+                length = buf[p + 9] + 12 + (13 if buf[p + 10] & MAV2_SIGNED else 0)
+            elif magic == MAV1_MAGIC:
+                length = buf[p + 9] + 8
+            else:
+                p += 1
+                self.resync_bytes += 1
+                continue
+            end = p + 8 + length
+            if end > n:
+                break  # truncated mid-packet
+            t_rec = unpack(buf, p)[0] * 1e-6
+            parts.append(buf[p + 8:end])
+            size += length
+            p = end
+            if size >= self.chunk_bytes:
+                if self.speed is not None:
+                    t0_rec = t_rec if t0_rec is None else t0_rec
+                    self._pace(t_rec - t0_rec, t0_wall)
+                self.position = p
+                if self.on_progress is not None:
+                    self.on_progress(p, n)
+                yield b"".join(parts), t_rec
+                parts, size = [], 0
+        self.resync_bytes += max(0, n - p) if p < n and not parts else 0
+        self.position = n
+        if parts:
+            yield b"".join(parts), t_rec
+        if self.on_progress is not None:
+            self.on_progress(n, n)
+
+    def _pace(self, t_rel: float, t0_wall: float) -> None:
+        assert self.speed is not None
+        wait = t0_wall + t_rel / self.speed - time.monotonic()
+        if wait > 0:
+            time.sleep(wait)
+
+
+def open_source(url: str, *, speed: float | None = None, idle_timeout_s: float | None = None,
+                on_progress: Callable[[int, int], None] | None = None) -> Source:
+    """Open a byte source from a URL; raise :class:`SourceError` with the expected forms."""
+    forms = ("udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT, /dev/ttyX[:BAUD], FILE.tlog, "
+             "zenoh:KEYEXPR[@ENDPOINT]")
+    if url.startswith(("udpin:", "udpout:", "udp:", "tcp:")):
+        scheme, _, rest = url.partition(":")
+        host, _, port_s = rest.rpartition(":")
+        if not host or not port_s.isdigit():
+            raise SourceError(f"{url!r}: expected {scheme}:HOST:PORT")
+        if scheme == "tcp":
+            return TcpSource(host, int(port_s), idle_timeout_s=idle_timeout_s)
+        return UdpSource(host, int(port_s), listen=scheme != "udpout",
+                         idle_timeout_s=idle_timeout_s)
+    if url.startswith("zenoh:"):
+        key, _, eps = url[len("zenoh:"):].partition("@")
+        endpoints = eps.split(",") if eps else ["tcp/127.0.0.1:7447"]
+        if not key:
+            raise SourceError(f"{url!r}: expected zenoh:KEYEXPR[@ENDPOINT]")
+        return ZenohSource(key, endpoints, idle_timeout_s=idle_timeout_s)
+    if url.startswith("/dev/"):
+        dev, _, baud = url.partition(":")
+        return SerialSource(dev, int(baud) if baud.isdigit() else 57600)
+    if url.endswith(".tlog") or Path(url).is_file():
+        return TlogSource(Path(url), speed=speed, on_progress=on_progress)
+    raise SourceError(f"cannot open {url!r}: expected one of {forms}")
