@@ -69,18 +69,21 @@ class Monitor:
     sinks_for : builds the sinks of a newly seen vehicle (Rerun, Zenoh, journal ...)
     estimators_for : builds a vehicle's (imu_estimators, airdata); default from ``cfg``
     on_step : called with (sysid, frame, PipelineStep) after each Frame (evaluation harness)
+    raw_sink : called with every decoded message (raw input recording)
     """
 
     def __init__(self, cfg: MonitorConfig | None = None, *,
                  sinks_for: Callable[[int], Sequence[Sink]] = lambda sysid: (),
                  estimators_for: Callable[[int], tuple[list[Estimator], Any | None]] | None = None,
                  on_step: Callable[[int, Any, PipelineStep], None] | None = None,
-                 decoder: Decoder | None = None) -> None:
+                 decoder: Decoder | None = None,
+                 raw_sink: Callable[[Any], None] | None = None) -> None:
         self.cfg = cfg or MonitorConfig()
         self.decoder = decoder or Decoder()
         self.sinks_for = sinks_for
         self.estimators_for = estimators_for or (lambda sysid: build_estimators(self.cfg))
         self.on_step = on_step
+        self.raw_sink = raw_sink
         self.vehicles: dict[int, VehicleState] = {}
         self.events: list[AlarmEvent] = []
         self.source_counters: dict[str, int] = {}
@@ -106,7 +109,11 @@ class Monitor:
     def feed(self, data: bytes, wall_s: float = 0.0) -> list[AlarmEvent]:
         """Decode a chunk and run every Frame it completes; return the alarm events."""
         out: list[AlarmEvent] = []
+        raw = self.raw_sink
         for msg in self.decoder.feed(data, wall_s):
+            if raw is not None:
+                msg._timestamp = wall_s
+                raw(msg)
             sysid = msg._header.srcSystem
             if sysid in GCS_SYSIDS:
                 continue

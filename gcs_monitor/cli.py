@@ -1,0 +1,330 @@
+"""gcs-monitor: live monitoring, tlog replay, alarm subscription, demo, evaluation, conversion.
+
+Argument parsing and printing only; the work is done by the library modules.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import math
+import sys
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+from gcs_monitor.config import ConfigError, MonitorConfig, load_config
+from gcs_monitor.core.units import MPS2KT, RAD2DEG
+from gcs_monitor.fdi.events import AlarmEvent
+
+log = logging.getLogger("gcs_monitor")
+DEFAULT_ZENOH = "tcp/127.0.0.1:7447"
+
+
+# -- display helpers ---------------------------------------------------------------------------
+def display_value(kind: str, value_si: float) -> tuple[float, str]:
+    """Value in the unit an operator reads for a channel kind."""
+    if kind == "aoa" or kind == "euler":
+        return value_si * RAD2DEG, "deg"
+    if kind == "cas":
+        return value_si * MPS2KT, "kt"
+    if kind == "gyro":
+        return value_si * RAD2DEG, "deg/s"
+    if kind == "acc":
+        return value_si, "m/s²"
+    return value_si, ""
+
+
+def format_event(ev: AlarmEvent) -> str:
+    ch = ev.channel
+    name = f"{ch.kind}{'' if ch.instance < 0 else ch.instance}{'.' + ch.axis if ch.axis else ''}"
+    if ch.instance < 0:
+        name = f"{ch.kind}[set]"
+    mag, unit = display_value(ch.kind, ev.magnitude)
+    mag_s = f"{mag:+.3g} {unit}" if math.isfinite(mag) else "-"
+    return (f"t={ev.t_us / 1e6:8.2f}s  {ev.state.value.upper():8s} {name:12s} {ev.kind.value:14s} "
+            f"{ev.fault_type.value:11s} {mag_s:14s} ({ev.estimator}) {ev.message}")
+
+
+# -- sinks -------------------------------------------------------------------------------------
+def _sinks_factory(args: argparse.Namespace, cfg: MonitorConfig) -> Callable[[int], list[Any]]:
+    journal = None
+    if getattr(args, "journal", None):
+        from gcs_monitor.sinks.journal import AlarmJournal
+
+        journal = AlarmJournal(Path(args.journal))
+    state = {"zenoh_listening": False}
+
+    def make(sysid: int) -> list[Any]:
+        sinks: list[Any] = []
+        if getattr(args, "rrd", None):
+            from gcs_monitor.sinks.rerun_sink import RerunSink
+
+            rrd = Path(args.rrd)
+            if sysid != 1:
+                rrd = rrd.with_name(f"{rrd.stem}_v{sysid}{rrd.suffix}")
+            sinks.append(RerunSink(sysid, rrd_path=rrd, plot_rate_hz=cfg.sinks.rerun_rate_hz))
+        elif getattr(args, "web", False):
+            from gcs_monitor.sinks.rerun_sink import RerunSink
+
+            sink = RerunSink(sysid, web=True, plot_rate_hz=cfg.sinks.rerun_rate_hz)
+            print(f"vehicle {sysid}: Rerun web viewer at {sink.viewer_url}", flush=True)
+            sinks.append(sink)
+        if getattr(args, "zenoh", False) or cfg.sinks.zenoh:
+            from gcs_monitor.sinks.zenoh_sink import ZenohSink
+
+            listen = list(args.zenoh_listen or cfg.sinks.zenoh_listen)
+            connect = list(args.zenoh_connect or cfg.sinks.zenoh_connect)
+            if state["zenoh_listening"]:  # later vehicles join the first one's session
+                connect, listen = connect + listen, []
+            state["zenoh_listening"] = True
+            sinks.append(ZenohSink(sysid, listen=listen, connect=connect,
+                                   estimate_rate_hz=cfg.sinks.estimate_rate_hz))
+        if journal is not None:
+            sinks.append(journal)
+        return sinks
+
+    return make
+
+
+def _add_sink_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--config", type=Path, help="monitor TOML (defaults suit the simulator)")
+    p.add_argument("--rrd", type=Path, help="write a Rerun recording (.rrd) per vehicle")
+    p.add_argument("--web", action="store_true", help="serve the Rerun web viewer on localhost")
+    p.add_argument("--zenoh", action="store_true", help="publish alarms/estimates/health on Zenoh")
+    p.add_argument("--zenoh-listen", action="append", help=f"endpoint (default {DEFAULT_ZENOH})")
+    p.add_argument("--zenoh-connect", action="append", help="router/peer endpoint to connect")
+    p.add_argument("--journal", type=Path, help="append alarms as JSON lines to this file")
+    p.add_argument("--record-tlog", type=Path, help="record the raw input to a .tlog")
+    p.add_argument("--quiet", action="store_true", help="print only the summary")
+
+
+def _run_source(src: Any, args: argparse.Namespace, *, duration_s: float | None = None,
+                progress: Any = None) -> int:
+    from gcs_monitor.monitor import Monitor
+
+    cfg = load_config(args.config)
+    tlog_out = None
+    if args.record_tlog:
+        from gcs_monitor.sinks.tlog_writer import TlogWriter
+
+        tlog_out = TlogWriter(args.record_tlog)
+    monitor = Monitor(cfg, sinks_for=_sinks_factory(args, cfg),
+                      raw_sink=tlog_out.write_message if tlog_out else None)
+    t0 = time.monotonic()
+    next_health = t0
+    try:
+        for data, wall in src:
+            for ev in monitor.feed(data, wall):
+                if not args.quiet:
+                    print(format_event(ev), flush=True)
+            now = time.monotonic()
+            if now >= next_health:
+                monitor.source_counters = {"dropped_chunks": src.dropped_chunks,
+                                           "dropped_bytes": src.dropped_bytes,
+                                           "resync_bytes": src.resync_bytes}
+                monitor.publish_health()
+                next_health = now + 1.0
+            if duration_s is not None and now - t0 >= duration_s:
+                break
+        for ev in monitor.finish():
+            if not args.quiet:
+                print(format_event(ev), flush=True)
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+    finally:
+        src.close()
+        monitor.source_counters = {"dropped_chunks": src.dropped_chunks,
+                                   "dropped_bytes": src.dropped_bytes,
+                                   "resync_bytes": src.resync_bytes}
+        monitor.close()
+        if tlog_out is not None:
+            tlog_out.close()
+        if progress is not None:
+            progress.close()
+    _print_summary(monitor, time.monotonic() - t0)
+    return 0
+
+
+def _print_summary(monitor: Any, wall_s: float) -> None:
+    h = monitor.health()
+    print(f"\n== summary ({wall_s:.1f} s wall) ==")
+    link = h["link"]
+    print(f"link: {link['bytes_in']} bytes, {link['parse_errors']} CRC/parse errors, "
+          f"{link['bad_signature']} bad signatures, {link.get('dropped_chunks', 0)} dropped chunks")
+    if not h["vehicles"]:
+        print("no vehicle seen")
+    for sysid, v in h["vehicles"].items():
+        lk = v["link"]
+        if not lk["per_type"]:
+            continue
+        print(f"vehicle {sysid}: {lk['messages']} msgs, lost {lk['lost']} ({lk['loss_pct']:.2f} %), "
+              f"reboots {lk['reboots']}, bad values {sum(lk['bad_values'].values())}, "
+              f"vehicle time {v['vehicle_time_s']:.1f} s")
+        for name, status in v["estimators"].items():
+            print(f"  {name:26s} {status}")
+    rows = summarise_alarms(monitor.events)
+    if rows:
+        print("\nalarms (first raise per channel):")
+        for r in rows:
+            print("  " + r)
+    else:
+        print("\nno alarms")
+
+
+def summarise_alarms(events: Sequence[AlarmEvent]) -> list[str]:
+    first: dict[Any, AlarmEvent] = {}
+    last: dict[Any, AlarmEvent] = {}
+    for ev in events:
+        if ev.state.value == "raised" and ev.channel not in first:
+            first[ev.channel] = ev
+        last[ev.channel] = ev
+    out = []
+    for ch, ev in sorted(first.items(), key=lambda kv: kv[1].t_us):
+        latest = last[ch]
+        mag, unit = display_value(ch.kind, latest.magnitude)
+        state = "cleared" if latest.state.value == "cleared" else "active"
+        out.append(f"{str(ch):12s} {ev.kind.value:14s} raised t={ev.t_us / 1e6:7.2f}s  "
+                   f"{latest.fault_type.value:11s} {mag:+9.3g} {unit:6s} {state}")
+    return out
+
+
+# -- commands ----------------------------------------------------------------------------------
+def cmd_live(args: argparse.Namespace) -> int:
+    from gcs_monitor.link.transports import open_source
+
+    src = open_source(args.url, idle_timeout_s=args.idle_timeout)
+    print(f"listening on {args.url} (Ctrl-C to stop)", flush=True)
+    return _run_source(src, args, duration_s=args.duration)
+
+
+def cmd_replay(args: argparse.Namespace) -> int:
+    from tqdm import tqdm
+
+    from gcs_monitor.link.transports import TlogSource
+
+    bar = tqdm(total=args.tlog.stat().st_size if args.tlog.exists() else 0, unit="B",
+               unit_scale=True, desc=args.tlog.name, disable=args.quiet or not sys.stderr.isatty())
+    last = [0]
+
+    def progress(done: int, total: int) -> None:
+        bar.update(done - last[0])
+        last[0] = done
+
+    src = TlogSource(args.tlog, speed=args.speed, on_progress=progress)
+    return _run_source(src, args, progress=bar)
+
+
+def cmd_alarms(args: argparse.Namespace) -> int:
+    from gcs_monitor.sinks.zenoh_sink import run_alarm_printer
+
+    run_alarm_printer(args.keyexpr, connect=args.connect or [DEFAULT_ZENOH],
+                      duration_s=args.duration, max_alarms=args.max, json_lines=args.json)
+    return 0
+
+
+def cmd_convert(args: argparse.Namespace) -> int:
+    from gcs_monitor.convert.writer import convert_file, lu2016_table2_injector
+
+    args.out.mkdir(parents=True, exist_ok=True)
+    inject = lu2016_table2_injector() if args.inject == "lu2016" else None
+    for path in args.inputs:
+        out = args.out / (path.stem + (".lu2016" if inject else "") + ".tlog")
+        res = convert_file(path, out, inject_imu=inject)
+        n = sum(res.messages.values())
+        print(f"{path.name}: {res.fmt}, {res.duration_s:.1f} s, {n} messages -> {out}")
+        if inject is not None and res.injected_imu is not None:
+            import numpy as np
+
+            np.savez(out.with_suffix(".truth.npz"), t_s=res.t_s, imu_fault=res.injected_imu)
+    return 0
+
+
+def cmd_demo(args: argparse.Namespace) -> int:
+    from gcs_monitor.demo import run_demo
+
+    return run_demo(args.out, preset=args.preset)
+
+
+def cmd_evaluate(args: argparse.Namespace) -> int:
+    from gcs_monitor.evaluation import registry
+
+    if args.preset_set:
+        from gcs_monitor.evaluation.harness import run_campaign
+
+        res = run_campaign(args.preset_set, args.runs, args.jobs, args.out, seed=args.seed)
+        print(res.markdown)
+        return 0
+    experiments = registry.experiments()
+    if not args.experiment or args.experiment not in experiments:
+        names = ", ".join(sorted(experiments))
+        print(f"choose --preset-set NAME or --experiment NAME; experiments: {names}",
+              file=sys.stderr)
+        return 2
+    print(experiments[args.experiment](args.out, args.jobs, args.quick))
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="gcs-monitor", description=__doc__)
+    p.add_argument("-v", "--verbose", action="store_true")
+    sub = p.add_subparsers(dest="cmd", required=True)
+    s = sub.add_parser("live", help="monitor a live MAVLink link")
+    s.add_argument("url", help="udpin:HOST:PORT | udpout:HOST:PORT | tcp:HOST:PORT | /dev/ttyX"
+                              "[:BAUD] | zenoh:KEYEXPR[@ENDPOINT]")
+    s.add_argument("--duration", type=float, help="stop after this many seconds")
+    s.add_argument("--idle-timeout", type=float, help="stop after this long without data (s)")
+    _add_sink_args(s)
+    s.set_defaults(func=cmd_live)
+    s = sub.add_parser("replay", help="replay a .tlog through the monitor")
+    s.add_argument("tlog", type=Path)
+    s.add_argument("--speed", type=float, help="speed factor (default: as fast as possible)")
+    _add_sink_args(s)
+    s.set_defaults(func=cmd_replay)
+    s = sub.add_parser("alarms", help="subscribe to the Zenoh alarm stream and print alarms")
+    s.add_argument("keyexpr", nargs="?", default="gcs/*/alarm")
+    s.add_argument("--connect", action="append", help=f"endpoint (default {DEFAULT_ZENOH})")
+    s.add_argument("--duration", type=float)
+    s.add_argument("--max", type=int, help="stop after this many alarms")
+    s.add_argument("--json", action="store_true", help="print raw JSON payloads")
+    s.set_defaults(func=cmd_alarms)
+    s = sub.add_parser("demo", help="simulate a faulty flight, monitor it, write a recording")
+    s.add_argument("--out", type=Path, default=Path("gcs_demo"))
+    s.add_argument("--preset", default="demo_airdata_faults")
+    s.set_defaults(func=cmd_demo)
+    s = sub.add_parser("evaluate", help="campaigns and paper experiments (tables + plots)")
+    s.add_argument("--preset-set", help="campaign preset set (triplex, wan2018, fault_free)")
+    s.add_argument("--experiment", help="a named paper experiment")
+    s.add_argument("--runs", type=int, default=100)
+    s.add_argument("--jobs", type=int, default=2)
+    s.add_argument("--seed", type=int, default=0)
+    s.add_argument("--quick", action="store_true", help="a small, fast version")
+    s.add_argument("--out", type=Path, default=Path("eval_out"))
+    s.set_defaults(func=cmd_evaluate)
+    s = sub.add_parser("convert", help="convert real flight data (Zipline/OnSpeed/ALFA CSV) to .tlog")
+    s.add_argument("inputs", nargs="+", type=Path)
+    s.add_argument("--out", type=Path, default=Path("converted"))
+    s.add_argument("--inject", choices=["none", "lu2016"], default="none",
+                   help="inject Lu2016 Table 2 IMU faults open-loop (truth written beside)")
+    s.set_defaults(func=cmd_convert)
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
+                        format="%(levelname)s %(name)s: %(message)s")
+    try:
+        return int(args.func(args))
+    except ConfigError as exc:
+        print(f"gcs-monitor: invalid configuration: {exc}", file=sys.stderr)
+        return 2
+    except (FileNotFoundError, ValueError) as exc:
+        print(f"gcs-monitor: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

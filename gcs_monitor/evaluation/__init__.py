@@ -1,0 +1,1 @@
+"""Evaluation: campaigns and paper experiments (uses sim_vehicle; see docs/architecture.md)."""

@@ -1,0 +1,31 @@
+"""Named experiments for ``gcs-monitor evaluate --experiment NAME``.
+
+The evaluation package is the one part of gcs_monitor that drives the simulator (sim_vehicle):
+evaluation needs ground truth by definition. Nothing else in gcs_monitor imports sim_vehicle.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable
+from pathlib import Path
+
+Experiment = Callable[[Path, int, bool], str]
+MODULES = ("gcs_monitor.evaluation.imu", "gcs_monitor.evaluation.imu_real",
+           "gcs_monitor.evaluation.wan2018", "gcs_monitor.evaluation.harness")
+
+
+def experiments() -> dict[str, Experiment]:
+    """Every experiment of every evaluation module that defines ``experiments()``."""
+    out: dict[str, Experiment] = {}
+    for name in MODULES:
+        try:
+            mod = importlib.import_module(name)
+        except ModuleNotFoundError as exc:
+            if exc.name == name:
+                continue
+            raise
+        fn = getattr(mod, "experiments", None)
+        if fn is not None:
+            out.update(fn())
+    return out
