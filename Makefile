@@ -16,7 +16,7 @@ $(VENV)/.installed-bench: $(VENV)/.installed
 	$(PY) -m pip install -q -e '.[test,bench]'
 	touch $@
 
-.PHONY: demo test test-slow bench install
+.PHONY: demo test test-slow test-browser bench install chromium
 install: $(VENV)/.installed
 
 demo: $(VENV)/.installed
@@ -25,8 +25,15 @@ demo: $(VENV)/.installed
 test: $(VENV)/.installed
 	$(PY) -m pytest
 
-test-slow: $(VENV)/.installed
+test-slow: $(VENV)/.installed chromium
 	$(PY) -m pytest -m slow
+
+test-browser: $(VENV)/.installed chromium
+	$(PY) -m pytest -m browser
+
+# Debian's chromium renders the Rerun web viewer for the dashboard screenshot test.
+chromium:
+	@command -v chromium >/dev/null 2>&1 || (apt-get update -q && apt-get install -y -q chromium)
 
 bench: $(VENV)/.installed-bench
 	$(PY) benchmarks/run_all.py
