@@ -1,0 +1,274 @@
+"""Open-loop IMU fault reconstruction on real flights (Lu2016 sec. 5), through the MAVLink path.
+
+Each flight is converted to a contract .tlog by ``gcs_monitor.convert.writer.convert_file`` twice:
+with the Lu2016 Table 2 faults added to IMU 0 (``lu2016_table2_injector()``; the converter
+returns the injected values as truth) and without. Both tlogs are replayed through the
+:class:`Monitor` (decode, FrameAssembler, GS-KM ATSEKF, channel FDI).
+
+Noise settings (not tuned per flight; one set per data source, from the data's own statistics):
+
+* Zipline (50 Hz): accelerometer / gyro / Euler sigma = the per-axis standard deviation while the
+  aircraft sits on the launcher (t < -1.2 s since launch, data README), median over all flights,
+  largest axis. Velocity sigma: the velocity is an estimator output (smooth, zero-velocity clamp
+  before launch), so its "noise" is taken from the one-step strapdown mismatch in flight
+  (t > 0.5 s, reset window masked): ``e_k = v_k - v_{k-1} - dt (C_ned_frd f_k + g)``,
+  sigma = RMS(e) / sqrt(2), median over flights.
+* OnSpeed / VN-300 (50 Hz, 30 s, no stationary part): accelerometer and gyro sigma from the
+  sample-to-sample differences in flight, std(diff x) / sqrt(2), largest axis (the VN-300 rates
+  are quantised to 0.01 rad/s; the quantisation sigma 0.01/sqrt(12) is the floor); Euler sigma =
+  median of the VN-300's own ``vn*Sigma`` outputs; GNSS velocity sigma = RMS of VN-300 INS minus
+  raw GNSS velocity (data README: 0.28/0.28/0.50 m/s), largest axis.
+
+Scoring (Zipline): times are seconds since launch; only t > 0.5 s after launch is scored (the
+catapult stroke at -0.62..-0.06 s is 7 g and the launcher clamps velocity to zero before it). The
+estimator-reset window (7.4-8.9 s, GPS velocity masked by the converter, so the filter restarts)
+plus SCORE_DELAY_S after it is excluded. The injected window is scored from its start + 1 s.
+
+FDI thresholds on real data: Zipline flights are split by index: the even-index flights'
+fault-free replays calibrate the IMU channel thresholds (``fdi.monitor.calibrate``, rule
+"max"), the odd-index flights are the evaluation set for the alarm check. OnSpeed (one flight) is
+checked with the Zipline thresholds and with the monitor defaults.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import math
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from gcs_monitor.config import MonitorConfig
+from gcs_monitor.config.loader import EstimatorsConfig, SetConfig
+from gcs_monitor.convert.writer import convert_file, lu2016_table2_injector
+from gcs_monitor.core.frames import dcm_ned_frd
+from gcs_monitor.core.units import RAD2DEG
+from gcs_monitor.estimators.base import Estimator
+from gcs_monitor.estimators.imu_ts import ImuTsConfig, ImuTwoStageEstimator, Lu2016Table1
+from gcs_monitor.evaluation.imu import (
+    AXES,
+    REPORT_SCALE,
+    SCORE_DELAY_S,
+    md_table,
+    replay_packets,
+    write_csv,
+)
+from gcs_monitor.fdi.events import AlarmState
+from gcs_monitor.fdi.monitor import calibrate
+
+DATA_DIR = Path("/work/shared/data/real")
+ZIPLINE_DIR = DATA_DIR / "zipline_launch"
+ONSPEED_FILE = DATA_DIR / "onspeed_vac_decel_stall_50hz.csv"
+ZIPLINE_T0_S = -5.0  # converter time 0 = first row; rows start 5 s before launch
+LAUNCH_SETTLE_S = 0.5
+STATIONARY_BEFORE_S = -1.2
+RESET_S = (7.4, 8.9)
+G_MPS2 = 9.78  # only for the velocity-mismatch statistic (Muhanga, 1,700 m)
+IMU_RATE_HZ = 50.0
+
+
+# ------------------------------------------------------------------------------------------------
+# noise from the data
+# ------------------------------------------------------------------------------------------------
+
+
+def _zipline_csv(path: Path) -> dict[str, np.ndarray]:
+    with open(path, newline="") as fh:
+        rows = list(csv.reader(fh))
+    h = rows[0]
+    a = np.array([[float(x) if x else math.nan for x in r] for r in rows[1:]])
+
+    def cols(stem: str) -> np.ndarray:
+        return a[:, [h.index(f"{stem}[{i}]") for i in range(3)]]
+
+    return {"t": a[:, h.index("seconds_since_launch")], "v": cols("velocity_ned_mps"),
+            "f": cols("accel_body_mps2"), "w": cols("angular_rate_body_radps"),
+            "e": cols("orientation_rad")}
+
+
+def zipline_noise(paths: list[Path]) -> tuple[Lu2016Table1, dict[str, float]]:
+    """Noise sigmas for all Zipline flights (module docstring); also returns the statistics."""
+    acc, gyr, eul, vel = [], [], [], []
+    for p in paths:
+        d = _zipline_csv(p)
+        st = d["t"] < STATIONARY_BEFORE_S
+        acc.append(np.nanstd(d["f"][st], axis=0))
+        gyr.append(np.nanstd(d["w"][st], axis=0))
+        eul.append(np.nanstd(d["e"][st], axis=0))
+        fl = (d["t"] > LAUNCH_SETTLE_S) & ~((d["t"] >= RESET_S[0] - 0.1) & (d["t"] <= RESET_S[1]))
+        idx = np.nonzero(fl[1:] & fl[:-1])[0] + 1
+        dt = np.diff(d["t"])[idx - 1]
+        pred = np.array([dcm_ned_frd(*d["e"][k]) @ d["f"][k] for k in idx]) + [0, 0, G_MPS2]
+        e = d["v"][idx] - d["v"][idx - 1] - dt[:, None] * pred
+        vel.append(np.sqrt(np.nanmean(e * e, axis=0)) / math.sqrt(2.0))
+    st = {"acc_sigma_mps2": float(np.median(acc, axis=0).max()),
+          "gyro_sigma_radps": float(np.median(gyr, axis=0).max()),
+          "euler_sigma_rad": float(np.median(eul, axis=0).max()),
+          "vel_sigma_mps": float(np.median(vel, axis=0).max())}
+    return Lu2016Table1(**st), st
+
+
+def onspeed_noise(path: Path = ONSPEED_FILE) -> tuple[Lu2016Table1, dict[str, float]]:
+    with open(path, newline="") as fh:
+        rows = list(csv.reader(fh))
+    h = [x.strip() for x in rows[0]]
+
+    def col(n: str) -> np.ndarray:
+        i = h.index(n)
+        return np.array([float(r[i]) if i < len(r) and r[i].strip() else math.nan
+                         for r in rows[1:]])
+
+    acc = np.column_stack([col(n) for n in ("vnAccelFwd", "vnAccelLat", "vnAccelVert")])
+    gyr = np.column_stack([col(n) for n in ("vnAngularRateRoll", "vnAngularRatePitch",
+                                            "vnAngularRateYaw")])
+    ins = np.column_stack([col(f"vnVelNed{a}") for a in ("North", "East", "Down")])
+    gnss = np.column_stack([col(f"vnGnssVelNed{a}") for a in ("North", "East", "Down")])
+    sig = np.column_stack([col(n) for n in ("vnRollSigma", "vnPitchSigma", "vnYawSigma")])
+    quant = 0.01 / math.sqrt(12.0)
+    st = {"acc_sigma_mps2": float((np.nanstd(np.diff(acc, axis=0), axis=0) / math.sqrt(2)).max()),
+          "gyro_sigma_radps": float(max(quant, (np.nanstd(np.diff(gyr, axis=0), axis=0)
+                                                / math.sqrt(2)).max())),
+          "euler_sigma_rad": float(np.nanmedian(sig, axis=0).max() / RAD2DEG),
+          "vel_sigma_mps": float(np.sqrt(np.nanmean((ins - gnss) ** 2, axis=0)).max())}
+    return Lu2016Table1(**st), st
+
+
+def estimators_with(noise: Lu2016Table1) -> Callable[[], list[Estimator]]:
+    cfg = ImuTsConfig(model="gs", adaptive=True, noise=noise, imu_rate_hz=IMU_RATE_HZ)
+    return lambda: [ImuTwoStageEstimator(cfg)]
+
+
+def _tlog_chunks(path: Path) -> list[bytes]:
+    from gcs_monitor.link.transports import TlogSource
+
+    with TlogSource(path) as src:
+        return [chunk for chunk, _ in src]
+
+
+def replay_flight(path: Path, tmp: Path, noise: Lu2016Table1, *, inject: bool,
+                  cfg: MonitorConfig | None = None) -> dict[str, Any]:
+    """Convert (optionally with the Lu2016 Table 2 injection) and replay one flight."""
+    out = tmp / (path.stem + ("_inj" if inject else "_clean") + ".tlog")
+    res = convert_file(path, out, inject_imu=lu2016_table2_injector() if inject else None)
+    t_s, f_hat, events = replay_packets(_tlog_chunks(out), estimators_with(noise), cfg)
+    f = f_hat.get("imu_ts", np.full((len(t_s), 6), math.nan))
+    truth = np.zeros((len(t_s), 6))
+    if res.injected_imu is not None:
+        for i in range(6):
+            truth[:, i] = np.interp(t_s, res.t_s, res.injected_imu[:, i])
+    out.unlink(missing_ok=True)
+    return {"t_s": t_s, "f_hat": f, "truth": truth, "events": events}
+
+
+def _masks(r: dict[str, Any], zipline: bool) -> tuple[np.ndarray, np.ndarray]:
+    """(in injected window, fault-free) scoring masks; see the module docstring."""
+    t = r["t_s"] + (ZIPLINE_T0_S if zipline else 0.0)  # seconds since launch for Zipline
+    ok = np.isfinite(r["f_hat"]).all(axis=1)
+    if zipline:
+        ok &= t > LAUNCH_SETTLE_S
+        ok &= ~((t >= RESET_S[0]) & (t <= RESET_S[1] + SCORE_DELAY_S))
+    on = np.any(r["truth"] != 0.0, axis=1)
+    if on.any():
+        idx = np.nonzero(on)[0]
+        t_on, t_off = t[idx[0]], t[idx[-1]]
+        inj = ok & (t >= t_on + SCORE_DELAY_S) & (t <= t_off)
+    else:
+        inj = np.zeros(len(t), dtype=bool)
+    return inj, ok & ~on
+
+
+def _rmse(r: dict[str, Any], m: np.ndarray) -> np.ndarray:
+    e = (r["f_hat"] - r["truth"])[m] * REPORT_SCALE
+    return np.sqrt(np.mean(e * e, axis=0)) if len(e) else np.full(6, math.nan)
+
+
+def _alarms(r: dict[str, Any], m_time: np.ndarray | None = None) -> int:
+    raised = [e for e in r["events"] if e.state == AlarmState.RAISED]
+    if m_time is None:
+        return len(raised)
+    t = r["t_s"]
+    ok_t = t[m_time]
+    return sum(1 for e in raised if ok_t.size and ok_t[0] <= e.t_us * 1e-6 <= ok_t[-1])
+
+
+def _thresholds(runs: list[dict[str, Any]], zipline: bool) -> dict[str, SetConfig]:
+    base = MonitorConfig().fdi
+    thr = np.zeros(6)
+    for r in runs:
+        _, ff = _masks(r, zipline)
+        for i in range(6):
+            n = (base.acc if i < 3 else base.gyro).n_eval
+            if ff.sum() >= n:
+                thr[i] = max(thr[i], calibrate(r["f_hat"][ff, i], rms_window_n=n))
+    return {"acc": dataclasses.replace(base.acc, threshold=float(thr[:3].max())),
+            "gyro": dataclasses.replace(base.gyro, threshold=float(thr[3:].max()))}
+
+
+def _cfg(sets: dict[str, SetConfig] | None) -> MonitorConfig:
+    base = MonitorConfig(estimators=EstimatorsConfig(airdata="none"))
+    return base if sets is None else dataclasses.replace(
+        base, fdi=dataclasses.replace(base.fdi, **sets))
+
+
+def imu_real(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
+    """Open-loop validation on the Zipline flights and the OnSpeed flight (module docstring).
+    ``quick``: the first 8 Zipline flights."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    zips = sorted(ZIPLINE_DIR.glob("flight_*.csv"))
+    if quick:
+        zips = zips[:8]
+    zn, zst = zipline_noise(zips)
+    on, ost = onspeed_noise()
+    lines = ["Noise from the data (SI): Zipline " + ", ".join(f"{k} {v:.3g}" for k, v in
+                                                             zst.items()),
+             "OnSpeed/VN-300 " + ", ".join(f"{k} {v:.3g}" for k, v in ost.items())]
+    rows: list[list[Any]] = []
+    with tempfile.TemporaryDirectory() as td:
+        tmp = Path(td)
+        clean = [replay_flight(p, tmp, zn, inject=False) for p in zips]
+        sets = _thresholds(clean[0::2], zipline=True)
+        cfg = _cfg(sets)
+        inj = [replay_flight(p, tmp, zn, inject=True, cfg=cfg) for p in zips]
+        eval_clean = [replay_flight(p, tmp, zn, inject=False, cfg=cfg) for p in zips[1::2]]
+        r_on_inj = replay_flight(ONSPEED_FILE, tmp, on, inject=True, cfg=cfg)
+        r_on_clean = replay_flight(ONSPEED_FILE, tmp, on, inject=False, cfg=cfg)
+        r_on_clean_def = replay_flight(ONSPEED_FILE, tmp, on, inject=False, cfg=_cfg(None))
+    lines.append(f"Zipline thresholds from the fault-free replays of flights {zips[0].stem}, "
+                 f"every 2nd ({len(clean[0::2])}): acc {sets['acc'].threshold:.4g} m/s^2, gyro "
+                 f"{sets['gyro'].threshold * RAD2DEG:.4g} deg/s")
+    z = np.array([_rmse(r, _masks(r, True)[0]) for r in inj])
+    rows.append(["Zipline median", len(zips)] + [float(x) for x in np.nanmedian(z, axis=0)])
+    rows.append(["Zipline worst", len(zips)] + [float(x) for x in np.nanmax(z, axis=0)])
+    rows.append(["OnSpeed", 1] + [float(x) for x in _rmse(r_on_inj, _masks(r_on_inj, False)[0])])
+    header = ["flights", "n"] + [f"RMSE {a}" for a in AXES]
+    write_csv(out_dir / "imu_real_rmse.csv", header, rows)
+    write_csv(out_dir / "imu_real_zipline_per_flight.csv", ["flight"] + list(AXES),
+              [[p.stem] + [float(x) for x in zz] for p, zz in zip(zips, z, strict=True)])
+    det = [sum(1 for e in r["events"] if e.state == AlarmState.RAISED) for r in inj]
+    ff_rows: list[list[Any]] = []
+    for label, runs, zl in (("Zipline (evaluation half)", eval_clean, True),
+                            ("Zipline (all, default thresholds)", clean, True),
+                            ("OnSpeed (Zipline thresholds)", [r_on_clean], False),
+                            ("OnSpeed (default thresholds)", [r_on_clean_def], False)):
+        fmax = np.max([np.nanmax(np.abs(r["f_hat"][_masks(r, zl)[1]]) * REPORT_SCALE, axis=0)
+                       for r in runs], axis=0)
+        n_al = sum(_alarms(r) for r in runs)
+        ff_rows.append([label, len(runs), n_al] + [float(x) for x in fmax])
+    ff_header = ["fault-free replay", "n", "alarms"] + [f"max abs {a}" for a in AXES]
+    write_csv(out_dir / "imu_real_fault_free.csv", ff_header, ff_rows)
+    return ("\n".join(f"- {x}" for x in lines) + "\n\nInjected Lu2016 Table 2 faults: RMSE of "
+            "f_hat - f (acc m/s^2, gyro deg/s) in the injected window (from start + "
+            f"{SCORE_DELAY_S:g} s; Zipline: t > {LAUNCH_SETTLE_S} s after launch, reset window "
+            "excluded):\n\n" + md_table(header, rows) + f"\n\nInjected replays with alarms: "
+            f"{sum(1 for d in det if d > 0)}/{len(det)} Zipline.\n\nWithout injection "
+            "(max |f_hat| over the scored fault-free samples; alarms over the whole flight):"
+            "\n\n" + md_table(ff_header, ff_rows) + "\n")
+
+
+def experiments() -> dict[str, Callable[[Path, int, bool], str]]:
+    return {"imu_real": imu_real}
