@@ -93,7 +93,9 @@ class Monitor:
         if v is None:
             stats = self.decoder.vehicle_stats(sysid)
             tel = self.cfg.telemetry
-            v = VehicleState(sysid, FrameAssembler(stats, stale_after_s=tel.stale_after_s))
+            # aligned: every input of a Frame is at t_us, GPS velocity interpolated exactly
+            # between the samples bracketing it; frames leave gps_delay_s behind the newest data
+            v = VehicleState(sysid, FrameAssembler.aligned(tel, stats))
             self.vehicles[sysid] = v
         return v
 
@@ -131,6 +133,9 @@ class Monitor:
                 est.reset()
             if pipe.airdata is not None:
                 pipe.airdata.reset()
+            # vehicle time restarted: without this no link check (and no LINK/reboot alarm)
+            # would run until the new clock passed the old one
+            v.next_link_check_us = 0
         out: list[AlarmEvent] = []
         for frame in frames:
             extra: list[AlarmEvent] = []
@@ -153,8 +158,14 @@ class Monitor:
                 "boot_count": float(st.reboots)}
 
     def finish(self) -> list[AlarmEvent]:
-        """End of input: flush held frames through the pipelines."""
+        """End of input: decode bytes still held, then flush held frames through the pipelines."""
         out: list[AlarmEvent] = []
+        for msg in self.decoder.flush():
+            sysid = msg._header.srcSystem
+            if sysid not in GCS_SYSIDS:
+                frames = self._vehicle(sysid).assembler.push(msg)
+                if frames:
+                    out += self._run(self._vehicle(sysid), frames)
         for v in self.vehicles.values():
             frames = v.assembler.flush()
             if frames:
@@ -171,6 +182,7 @@ class Monitor:
                 "estimators": estimator_availability(avail),
                 "alarms": v.pipeline.health()["active_alarms"] if v.pipeline else [],
                 "vehicle_time_s": v.last_t_us * 1e-6,
+                "sinks": [sink_health(s) for s in v.pipeline.sinks] if v.pipeline else [],
             }
         return {"link": self.decoder.counters.as_dict() | self.source_counters,
                 "vehicles": vehicles}
@@ -187,6 +199,16 @@ class Monitor:
         for v in self.vehicles.values():
             if v.pipeline is not None:
                 v.pipeline.close()
+
+
+def sink_health(sink: Any) -> dict[str, Any]:
+    """A sink's own counters (a Zenoh session that failed, payloads dropped) for health."""
+    out: dict[str, Any] = {"sink": type(sink).__name__}
+    for k in ("active", "n_published", "n_dropped", "n_errors"):
+        v = getattr(sink, k, None)
+        if isinstance(v, bool | int | float):
+            out[k] = v
+    return out
 
 
 def estimator_availability(avail: dict[str, Any]) -> dict[str, str]:

@@ -26,12 +26,14 @@ import os
 import socket
 import struct
 import time
+from collections.abc import Callable
 from pathlib import Path
 from types import TracebackType
 from typing import BinaryIO
 
 os.environ.setdefault("MAVLINK20", "1")
 os.environ.setdefault("MAVLINK_DIALECT", "ardupilotmega")
+import numpy as np  # noqa: E402
 from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
 
 try:  # the C CRC pymavlink itself uses when available
@@ -65,8 +67,10 @@ def _cdegc(temp_k: float) -> int:
 
 
 MAVLINK2_MAGIC = 0xFD
-_HDR = struct.Struct("<BBBBBBBHB")
+_MAGIC = bytes((MAVLINK2_MAGIC,))
+_HDR_TAIL = struct.Struct("<BBHB")  # sysid, compid, message id (low 16 bits, high 8 bits)
 _CRC = struct.Struct("<H")
+_AOA_NAMES = tuple(f"AOA{i}".encode() for i in range(N_AIRDATA))
 
 
 class _FastPacker:
@@ -89,14 +93,26 @@ class _FastPacker:
             f"lambda a: st({', '.join(args)})", {"st": cls.unpacker.pack})  # type: ignore[attr-defined]
 
     def pack(self, mav: mavlink.MAVLink, *a: object) -> bytes:
-        payload = self.payload(a).rstrip(b"\0") or b"\0"  # MAVLink 2 trailing-zero truncation
+        return self.bind(mav)(*a)
+
+    def bind(self, mav: mavlink.MAVLink) -> Callable[..., bytes]:
+        """``pack(*args) -> bytes`` for one ``MAVLink`` object (its sysid/compid fixed now)."""
+        payload_of = self.payload
+        crc_extra = self.crc_extra
         mid = self.msg_id
-        hdr = _HDR.pack(MAVLINK2_MAGIC, len(payload), 0, 0, mav.seq, mav.srcSystem,
-                        mav.srcComponent, mid & 0xFFFF, mid >> 16)
-        body = hdr[1:] + payload
-        crc = _mcrf4xx(body + self.crc_extra, 0xFFFF)
-        mav.seq = (mav.seq + 1) % 256
-        return hdr + payload + _CRC.pack(crc)
+        # header after (len, incompat, compat, seq): sysid, compid, 24-bit message id
+        tail = _HDR_TAIL.pack(mav.srcSystem, mav.srcComponent, mid & 0xFFFF, mid >> 16)
+        crc16 = _mcrf4xx
+        crc_pack = _CRC.pack
+
+        def pack(*a: object) -> bytes:
+            payload = payload_of(a).rstrip(b"\0") or b"\0"  # MAVLink 2 trailing-zero truncation
+            seq = mav.seq
+            body = bytes((len(payload), 0, 0, seq)) + tail + payload
+            mav.seq = (seq + 1) % 256
+            return _MAGIC + body + crc_pack(crc16(body + crc_extra, 0xFFFF))
+
+        return pack
 
 
 _PACKERS: dict[type, _FastPacker] = {}
@@ -130,77 +146,108 @@ class MavlinkEncoder:
         self._cas0 = 0.0
         self._throttle = 0
         self._surf = [0.0] * DEBUG_ARRAY_LEN
+        self._bound: dict[type, Callable[..., bytes]] = {}
+        M = mavlink
+        self._imu = self._packer(M.MAVLink_highres_imu_message)
+        self._att = self._packer(M.MAVLink_attitude_message)
+        self._gpi = self._packer(M.MAVLink_global_position_int_message)
+        self._gps_raw = self._packer(M.MAVLink_gps_raw_int_message)
+        self._aspd = self._packer(M.MAVLink_airspeed_message)
+        self._aoa = self._packer(M.MAVLink_aoa_ssa_message)
+        self._nvf = self._packer(M.MAVLink_named_value_float_message)
+        self._hud = self._packer(M.MAVLink_vfr_hud_message)
+        self._press = self._packer(M.MAVLink_scaled_pressure_message)
+        self._by_group = {"attitude": self._enc_attitude, "gps": self._enc_gps,
+                          "airdata": self._enc_airdata, "baro": self._enc_baro,
+                          "static": self._enc_static}
+
+    def _packer(self, cls: type) -> Callable[..., bytes]:
+        """``pack(*encode_args) -> bytes`` of one message type (sequence numbers shared)."""
+        f = self._bound.get(cls)
+        if f is None:
+            if _mcrf4xx is None:  # pragma: no cover
+
+                def f(*args: object) -> bytes:
+                    buf: bytes = cls(*args).pack(self.mav)
+                    self.mav.seq = (self.mav.seq + 1) % 256
+                    return buf
+
+            else:
+                p = _PACKERS.get(cls)
+                if p is None:
+                    p = _PACKERS[cls] = _FastPacker(cls)
+                f = p.bind(self.mav)
+            self._bound[cls] = f
+        return f
 
     def _pack(self, cls: type, *args: object) -> bytes:
         """Encode one message given ``cls`` and its ``*_encode`` arguments."""
-        if _mcrf4xx is None:  # pragma: no cover
-            buf: bytes = cls(*args).pack(self.mav)
-            self.mav.seq = (self.mav.seq + 1) % 256
-            return buf
-        p = _PACKERS.get(cls)
-        if p is None:
-            p = _PACKERS[cls] = _FastPacker(cls)
-        return p.pack(self.mav, *args)
+        return self._packer(cls)(*args)
 
     # -- sensor-driven -------------------------------------------------------------------------
 
     def encode_sample(self, s: SensorSample) -> list[tuple[str, bytes]]:
         """Packets carrying one sensor sample, as (message type, bytes)."""
-        g, t_us, v = s.group, s.t_us, s.values
-        ms = t_us // 1000
-        M = mavlink
-        if g.startswith("imu"):
+        g = s.group
+        v = s.values.tolist() if isinstance(s.values, np.ndarray) else [float(x) for x in s.values]
+        if g[:3] == "imu":
             inst = int(g[3:])
             if inst == 0:
-                self._gyro0 = (float(v[3]), float(v[4]), float(v[5]))
-            return [("HIGHRES_IMU", self._pack(M.MAVLink_highres_imu_message,
-                t_us, v[0], v[1], v[2], v[3], v[4], v[5], 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+                self._gyro0 = (v[3], v[4], v[5])
+            return [("HIGHRES_IMU", self._imu(
+                s.t_us, v[0], v[1], v[2], v[3], v[4], v[5], 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
                 self._oat_k - KELVIN_0C, 0x3F, inst))]
-        if g == "attitude":
-            self._hdg_deg = int(round(math.degrees(v[2]))) % 360
-            p, q, r = self._gyro0
-            return [("ATTITUDE", self._pack(M.MAVLink_attitude_message,
-                ms, v[0], v[1], v[2], p, q, r))]
-        if g == "gps":
-            vn, ve, vd, lat, lon, alt = (float(x) for x in v)
-            gs = math.hypot(vn, ve)
-            self._gs_mps = gs
-            cog = int(round(math.degrees(math.atan2(ve, vn)) * 100.0)) % 36000
-            lat7, lon7 = int(round(lat * RAD2DEGE7)), int(round(lon * RAD2DEGE7))
-            alt_mm = int(round(alt * 1000.0))
-            return [
-                ("GLOBAL_POSITION_INT", self._pack(M.MAVLink_global_position_int_message,
-                    ms, lat7, lon7, alt_mm, int(round((alt - self.home_alt_m) * 1000.0)),
-                    _i16(vn * 100.0), _i16(ve * 100.0), _i16(vd * 100.0), cog)),
-                ("GPS_RAW_INT", self._pack(M.MAVLink_gps_raw_int_message,
-                    t_us, GPS_FIX_3D, lat7, lon7, alt_mm, GPS_EPH_CM, GPS_EPH_CM,
-                    min(int(round(gs * 100.0)), 65534), cog, GPS_SATELLITES,
-                    0, 0, 0, 0, 0, 0)),
-            ]
-        if g == "airdata":
-            out = []
-            temp = _cdegc(self._oat_k)
-            self._cas0 = float(v[N_AIRDATA])
-            for i in range(N_AIRDATA):
-                cas = float(v[N_AIRDATA + i])
-                qc_hpa = impact_pressure_pa(cas) * PA2HPA if cas > 0 else 0.0
-                out.append(("AIRSPEED", self._pack(M.MAVLink_airspeed_message,
-                    i, cas, temp, qc_hpa, 0)))
-            out.append(("AOA_SSA", self._pack(M.MAVLink_aoa_ssa_message,
-                t_us, v[0] * RAD2DEG, v[2 * N_AIRDATA] * RAD2DEG)))
-            for i in range(1, N_AIRDATA):
-                out.append(("NAMED_VALUE_FLOAT", self._pack(M.MAVLink_named_value_float_message,
-                    ms, f"AOA{i}".encode(), v[i] * RAD2DEG)))
-            return out
-        if g == "baro":
-            return [("VFR_HUD", self._pack(M.MAVLink_vfr_hud_message,
-                self._cas0, self._gs_mps, self._hdg_deg, self._throttle, v[0], v[1]))]
-        if g == "static":
-            self._oat_k = float(v[1])
-            qc_hpa = impact_pressure_pa(self._cas0) * PA2HPA if self._cas0 > 0 else 0.0
-            return [("SCALED_PRESSURE", self._pack(M.MAVLink_scaled_pressure_message,
-                ms, v[0] * PA2HPA, qc_hpa, _cdegc(v[1]), 0))]
-        raise KeyError(g)
+        enc = self._by_group.get(g)
+        if enc is None:
+            raise KeyError(g)
+        return enc(s.t_us, v)
+
+    def _enc_attitude(self, t_us: int, v: list[float]) -> list[tuple[str, bytes]]:
+        self._hdg_deg = int(round(math.degrees(v[2]))) % 360
+        p, q, r = self._gyro0
+        return [("ATTITUDE", self._att(t_us // 1000, v[0], v[1], v[2], p, q, r))]
+
+    def _enc_gps(self, t_us: int, v: list[float]) -> list[tuple[str, bytes]]:
+        vn, ve, vd, lat, lon, alt = v
+        ms = t_us // 1000
+        gs = math.hypot(vn, ve)
+        self._gs_mps = gs
+        cog = int(round(math.degrees(math.atan2(ve, vn)) * 100.0)) % 36000
+        lat7, lon7 = int(round(lat * RAD2DEGE7)), int(round(lon * RAD2DEGE7))
+        alt_mm = int(round(alt * 1000.0))
+        return [
+            ("GLOBAL_POSITION_INT", self._gpi(
+                ms, lat7, lon7, alt_mm, int(round((alt - self.home_alt_m) * 1000.0)),
+                _i16(vn * 100.0), _i16(ve * 100.0), _i16(vd * 100.0), cog)),
+            ("GPS_RAW_INT", self._gps_raw(
+                t_us, GPS_FIX_3D, lat7, lon7, alt_mm, GPS_EPH_CM, GPS_EPH_CM,
+                min(int(round(gs * 100.0)), 65534), cog, GPS_SATELLITES,
+                0, 0, 0, 0, 0, 0)),
+        ]
+
+    def _enc_airdata(self, t_us: int, v: list[float]) -> list[tuple[str, bytes]]:
+        out = []
+        temp = _cdegc(self._oat_k)
+        self._cas0 = v[N_AIRDATA]
+        for i in range(N_AIRDATA):
+            cas = v[N_AIRDATA + i]
+            qc_hpa = impact_pressure_pa(cas) * PA2HPA if cas > 0 else 0.0
+            out.append(("AIRSPEED", self._aspd(i, cas, temp, qc_hpa, 0)))
+        out.append(("AOA_SSA", self._aoa(t_us, v[0] * RAD2DEG, v[2 * N_AIRDATA] * RAD2DEG)))
+        ms = t_us // 1000
+        for i in range(1, N_AIRDATA):
+            out.append(("NAMED_VALUE_FLOAT", self._nvf(ms, _AOA_NAMES[i], v[i] * RAD2DEG)))
+        return out
+
+    def _enc_baro(self, t_us: int, v: list[float]) -> list[tuple[str, bytes]]:
+        return [("VFR_HUD", self._hud(
+            self._cas0, self._gs_mps, self._hdg_deg, self._throttle, v[0], v[1]))]
+
+    def _enc_static(self, t_us: int, v: list[float]) -> list[tuple[str, bytes]]:
+        self._oat_k = v[1]
+        qc_hpa = impact_pressure_pa(self._cas0) * PA2HPA if self._cas0 > 0 else 0.0
+        return [("SCALED_PRESSURE", self._press(
+            t_us // 1000, v[0] * PA2HPA, qc_hpa, _cdegc(v[1]), 0))]
 
     # -- clocked -------------------------------------------------------------------------------
 
@@ -213,8 +260,9 @@ class MavlinkEncoder:
 
     def servo_output_raw(self, t_us: int, st: TrueState) -> tuple[str, bytes]:
         pwm = []
+        cmd = st.surf_cmd_rad
         for k in range(3):
-            frac = max(-1.0, min(1.0, float(st.surf_cmd_rad[k]) / self.servo_max[k]))
+            frac = max(-1.0, min(1.0, float(cmd[k]) / self.servo_max[k]))
             pwm.append(int(round(PWM_CENTER_US + PWM_HALF_RANGE_US * frac)))
         self._throttle = int(round(100.0 * st.throttle))
         return ("SERVO_OUTPUT_RAW", self._pack(mavlink.MAVLink_servo_output_raw_message,
@@ -223,10 +271,11 @@ class MavlinkEncoder:
 
     def surf(self, t_us: int, st: TrueState) -> tuple[str, bytes]:
         d = self._surf
+        cmd, pos, rod = st.surf_cmd_rad, st.surf_pos_rad, st.rod_pos_m
         for k in range(3):
-            d[3 * k] = float(st.surf_cmd_rad[k])
-            d[3 * k + 1] = float(st.surf_pos_rad[k])
-            d[3 * k + 2] = float(st.rod_pos_m[k])
+            d[3 * k] = float(cmd[k])
+            d[3 * k + 1] = float(pos[k])
+            d[3 * k + 2] = float(rod[k])
         return ("DEBUG_FLOAT_ARRAY", self._pack(mavlink.MAVLink_debug_float_array_message,
             t_us, b"SURF", 0, d))
 

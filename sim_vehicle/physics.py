@@ -29,8 +29,9 @@ from sim_vehicle.actuators.servo_bank import ActuatorGeometry, ServoBank
 from sim_vehicle.autopilot.loops import Autopilot, Feedback
 from sim_vehicle.autopilot.manoeuvres import ManoeuvreScript, ManoeuvreSpec
 from sim_vehicle.autopilot.trim import Trim, trim_level
+from sim_vehicle.dynamics import _rigid_body_jit as rbj
 from sim_vehicle.dynamics.airframe import Airframe, load_airframe
-from sim_vehicle.dynamics.rigid_body import RigidBody, dcm_from_quat_fast, gravity_fast, rk4_step
+from sim_vehicle.dynamics.rigid_body import RigidBody, dcm_from_quat_fast, gravity_fast
 from sim_vehicle.environment.wind import WindField
 from sim_vehicle.state import TrueState
 
@@ -71,6 +72,20 @@ def euler_from_quat(q0: float, q1: float, q2: float, q3: float) -> tuple[float, 
     theta = -math.asin(max(-1.0, min(1.0, s)))
     psi = math.atan2(2.0 * (q1 * q2 + q0 * q3), 1.0 - 2.0 * (q2 * q2 + q3 * q3))
     return phi, theta, psi
+
+
+def _feedback(
+    alt: float, vn: float, ve: float, vd: float, tas: float, p_static: float, oat: float,
+    phi: float, theta: float, psi: float, p: float, q: float, r: float, beta: float,
+    acc_z: float,
+) -> Feedback:
+    gs = math.sqrt(vn**2 + ve**2 + vd**2)
+    gamma = math.asin(max(-1.0, min(1.0, -vd / gs))) if gs > 0.0 else 0.0
+    return Feedback(
+        alt_m=alt, vd_mps=vd, tas_mps=tas, rho_kgpm3=p_static / (atm.c.ISA_R_JPKGK * oat),
+        phi=phi, theta=theta, psi=psi, p=p, q=q, r=r, beta=beta, acc_z_mps2=acc_z,
+        gamma_rad=gamma,
+    )
 
 
 class Simulation:
@@ -114,6 +129,7 @@ class Simulation:
         mean = self.wind.mean
         self.trim: Trim = trim_level(self.body, lat, lon, init.alt_m, tas, hdg, mean)
         self.x = list(self.trim.state)
+        self._prm = rbj.pack_params(self.body)
         act = self.airframe.actuators
         self.servos = ServoBank(
             ActuatorGeometry(act.rod_gain_radpm, act.rod_stroke_m),
@@ -139,22 +155,36 @@ class Simulation:
         self.wind.advance_turbulence(tas)
         self._wind_now = self.wind.wind_ned(0.0, dcm_from_quat_fast(*self.x[6:10]))
         self._thr_cmd = self.trim.throttle
-        self._state = self._make_state()
+        self._xa = np.array(self.x)
+        self._deriv = np.empty(len(self.x))
+        out = np.empty(rbj.N_OUT)
+        rbj.evaluate(self._xa, np.array((*self._surf(), self._thr_cmd, *self._wind_now)),
+                     self._prm, self._deriv, out)
+        self._state = self._make_state(out.tolist())
 
     # ------------------------------------------------------------------ helpers
     def _surf(self) -> tuple[float, float, float]:
         s = self.servos
         return s.deflection_rad(0), s.deflection_rad(1), s.deflection_rad(2)
 
-    def _make_state(self) -> TrueState:
+    def _make_state(self, out: list[float]) -> TrueState:
+        """The published state from ``self.x`` and the outputs of ``RigidBody.evaluate``.
+
+        Also caches the autopilot's :class:`Feedback` of that state (``self._fb``), built from
+        the same floats as :meth:`_feedback_of` would take from it.
+        """
         x = self.x
         da, de, dr = self._surf()
-        wn, we, wd = self._wind_now
-        self._deriv, out = self.body.evaluate(x, da, de, dr, self._thr_cmd, wn, we, wd)
         ax, ay, az, tas, alpha, beta, _rho, _thrust = out
         h = x[2]
         phi, theta, psi = euler_from_quat(x[6], x[7], x[8], x[9])
         s = self.servos
+        p_static = atm.isa_pressure_pa(h)
+        oat = atm.isa_temperature_k(h)
+        self._fb = _feedback(
+            h, x[3], x[4], x[5], tas, p_static, oat, phi, theta, psi, x[10], x[11], x[12],
+            beta, az,
+        )
         return TrueState(
             t_s=self.t_s,
             lat_rad=x[0],
@@ -169,8 +199,8 @@ class Simulation:
             aoa_rad=alpha,
             ssa_rad=beta,
             pressure_alt_m=h,
-            static_pressure_pa=atm.isa_pressure_pa(h),
-            oat_k=atm.isa_temperature_k(h),
+            static_pressure_pa=p_static,
+            oat_k=oat,
             cas_mps=atm.cas_from_tas(tas, h),
             surf_cmd_rad=np.array(s.cmd_rad),
             surf_pos_rad=np.array((da, de, dr)),
@@ -180,25 +210,14 @@ class Simulation:
 
     @staticmethod
     def _feedback_of(st: TrueState) -> Feedback:
+        """The autopilot's inputs taken from a (possibly corrupted) state."""
         v = st.vel_ned_mps
-        gs = math.sqrt(float(v[0]) ** 2 + float(v[1]) ** 2 + float(v[2]) ** 2)
-        gamma = math.asin(max(-1.0, min(1.0, -float(v[2]) / gs))) if gs > 0.0 else 0.0
         e = st.euler_rad
         w = st.omega_frd_radps
-        return Feedback(
-            alt_m=st.alt_m,
-            vd_mps=float(v[2]),
-            tas_mps=st.tas_mps,
-            rho_kgpm3=st.static_pressure_pa / (atm.c.ISA_R_JPKGK * st.oat_k),
-            phi=float(e[0]),
-            theta=float(e[1]),
-            psi=float(e[2]),
-            p=float(w[0]),
-            q=float(w[1]),
-            r=float(w[2]),
-            beta=st.ssa_rad,
-            acc_z_mps2=float(st.acc_frd_mps2[2]),
-            gamma_rad=gamma,
+        return _feedback(
+            st.alt_m, float(v[0]), float(v[1]), float(v[2]), st.tas_mps, st.static_pressure_pa,
+            st.oat_k, float(e[0]), float(e[1]), float(e[2]), float(w[0]), float(w[1]),
+            float(w[2]), st.ssa_rad, float(st.acc_frd_mps2[2]),
         )
 
     # ------------------------------------------------------------------ public API
@@ -209,8 +228,7 @@ class Simulation:
     def step(self) -> TrueState:
         """Advance ``dt_s``; return the state at the new time."""
         dt = self.dt_s
-        st = self._state if self.feedback is None else self.feedback(self._state)
-        fb = self._feedback_of(st)
+        fb = self._fb if self.feedback is None else self._feedback_of(self.feedback(self._state))
         tg = self.manoeuvre.targets(self.t_s, fb)
         da, de, dr, thr = self.autopilot.update(fb, tg, dt)
         self._thr_cmd = thr
@@ -221,11 +239,19 @@ class Simulation:
         self.wind.advance_turbulence(self._state.tas_mps)
         w1 = self.wind.wind_ned(self.t_s + dt, dcm_from_quat_fast(*self.x[6:10]))
         # The derivative evaluated for the published state is this step's k1 (same state, surfaces
-        # and wind); only the engine-lag term depends on the new throttle command.
+        # and wind); only the engine-lag term depends on the new throttle command. The compiled
+        # kernel is ``rigid_body.rk4_step`` followed by ``RigidBody.evaluate`` at the new state.
         k1 = self._deriv
         k1[13] = (thr - self.x[13]) / self.body.tau_engine_s
-        self.x = rk4_step(self.body, self.x, dt, (*s0, thr, *w0), (*s1, thr, *w1), k1)
+        xa = np.empty(rbj.N_STATE)
+        deriv = np.empty(rbj.N_STATE)
+        out = np.empty(rbj.N_OUT)
+        rbj.step(self._xa, dt, np.array((*s0, thr, *w0, *s1, thr, *w1)), k1, self._prm,
+                 xa, deriv, out)
+        self._xa = xa
+        self._deriv = deriv
+        self.x = self._xa.tolist()
         self.t_s += dt
         self._wind_now = w1
-        self._state = self._make_state()
+        self._state = self._make_state(out.tolist())
         return self._state

@@ -43,8 +43,15 @@ class SimulationLike(Protocol):
 SimulationFactory = Callable[[Scenario], SimulationLike]
 
 
-def make_simulation(sc: Scenario) -> SimulationLike:
-    """The physics (``sim_vehicle.physics.Simulation``) configured from a scenario."""
+FeedbackHook = Callable[[TrueState], TrueState]
+
+
+def make_simulation(sc: Scenario, *, feedback: FeedbackHook | None = None) -> SimulationLike:
+    """The physics (``sim_vehicle.physics.Simulation``) configured from a scenario.
+
+    ``feedback`` maps the true state to what the autopilot sees (closed-loop studies: a faulty
+    sensor in the loop); ``None`` = the autopilot sees the truth.
+    """
     from sim_vehicle import physics  # late: physics is heavy and optional for sensor-only use
 
     return physics.Simulation(  # type: ignore[no-any-return]
@@ -55,6 +62,7 @@ def make_simulation(sc: Scenario) -> SimulationLike:
         actuator_faults=sc.actuator_faults,
         seed=sc.seed,
         dt_s=sc.dt_s,
+        feedback=feedback,
     )
 
 
@@ -104,6 +112,7 @@ def iter_run(
     record_truth: bool = False,
     run_state: RunState | None = None,
     on_step: Callable[[int], None] | None = None,
+    feedback: FeedbackHook | None = None,
 ) -> Iterator[tuple[int, str, bytes]]:
     """The fixed-step loop; yields ``(t_us, message_type, packet)`` in time order.
 
@@ -114,9 +123,16 @@ def iter_run(
     record_truth : keep the true state at ``sc.output.truth_hz`` in ``run_state.truth``
     run_state : receives the sensor suite (fault log), truth recorder and message counts
     on_step : called with the vehicle time (µs) before the packets of each step are yielded
+    feedback : what the autopilot sees instead of the true state (``Simulation.feedback``);
+        the sensors, MAVLink output and truth always get the true state
     """
     rs = run_state if run_state is not None else RunState()
     sim = simulation_factory(sc)
+    if feedback is not None:
+        if not hasattr(sim, "feedback"):
+            raise TypeError(f"feedback= needs a simulation with a 'feedback' attribute, "
+                            f"got {type(sim).__name__}")
+        sim.feedback = feedback
     dt_us = round(sc.dt_s * 1e6)
     n_steps = round(sc.duration_s / sc.dt_s)
     suite = SensorSuite(
@@ -164,10 +180,13 @@ def iter_run(
 
 
 def iter_packets(
-    sc: Scenario, *, simulation_factory: SimulationFactory = make_simulation
+    sc: Scenario,
+    *,
+    simulation_factory: SimulationFactory = make_simulation,
+    feedback: FeedbackHook | None = None,
 ) -> Iterator[tuple[int, bytes]]:
     """In-memory run: ``(vehicle_time_us, packet_bytes)``; no files, no sockets, no clock."""
-    for t_us, _, pkt in iter_run(sc, simulation_factory=simulation_factory):
+    for t_us, _, pkt in iter_run(sc, simulation_factory=simulation_factory, feedback=feedback):
         yield t_us, pkt
 
 
@@ -195,11 +214,13 @@ def run_scenario(
     udp: tuple[str, int] = DEFAULT_UDP,
     progress: bool = True,
     simulation_factory: SimulationFactory = make_simulation,
+    feedback: FeedbackHook | None = None,
 ) -> RunResult:
     """Run a scenario to a .tlog (file mode) or to UDP in real time (live), plus ground truth.
 
     Files in ``out_dir``: ``<name>_s<seed>.tlog`` (file mode), ``.truth.npz``,
     ``.scenario.toml``; each written to a temporary name and renamed when complete.
+    ``feedback`` is passed to :func:`iter_run` (closed-loop studies).
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -225,7 +246,8 @@ def run_scenario(
     ok = False
     try:
         for t_us, _, pkt in iter_run(sc, simulation_factory=simulation_factory,
-                                     record_truth=True, run_state=rs, on_step=on_step):
+                                     record_truth=True, run_state=rs, on_step=on_step,
+                                     feedback=feedback):
             sink.write(t_us, pkt)
         ok = True
     finally:

@@ -43,6 +43,7 @@ from gcs_monitor.models.kinematics_body import (
     body_gs_meas_jac,
     body_gs_measurement,
     body_gs_noise_matrix,
+    compiled_kernels,
     drift_rate_to_fault,
 )
 from gcs_monitor.telemetry.frame import Frame
@@ -101,6 +102,8 @@ class ImuHosmConfig:
     max_dt_s : a larger gap between frames resets the filter
     mapping : drift-rate to fault mapping, ``"flat"`` or ``"paper"`` (eq. 51)
     propagate : ``"corrected"`` or ``"paper"`` (see module docstring)
+    compiled : run model, OTSEKF and HOSM through their numba kernels when numba is installed
+        (same equations; ``False`` runs the numpy references)
     """
 
     noise: AtmacaSensorNoise = field(default_factory=AtmacaSensorNoise)
@@ -116,6 +119,7 @@ class ImuHosmConfig:
     max_dt_s: float = 0.1
     mapping: str = "flat"
     propagate: str = "corrected"
+    compiled: bool = True
 
 
 @dataclass(frozen=True, slots=True)
@@ -148,8 +152,23 @@ class ImuHosmEstimator:
         self._drift_var_rate = np.array(
             [self.cfg.drift_acc_sigma_mps_rs**2] * 3 + [self.cfg.drift_gyro_sigma_rad_rs**2] * 3
         )
+        self._q_imu_diag: Vec = self._Q_imu.diagonal().copy()
         self._eye = np.eye(N_STATE)
         self._zero_B = np.zeros((N_STATE, N_STATE))
+        self._kb = compiled_kernels() if self.cfg.compiled else None
+        # Work arrays of the compiled path: the kernels overwrite them every step and the filter
+        # does not keep them, so one OtsekfPrediction is reused.
+        ns = N_STATE
+        self._pred_buf = OtsekfPrediction(
+            x_bar_prop=np.zeros(ns),
+            Phi=np.zeros((ns, ns)),
+            B=np.zeros((ns, ns)),
+            Qx=np.zeros((ns, ns)),
+            Qxmu=np.zeros((ns, ns)),
+            Qmu=np.zeros((ns, ns)),
+        )
+        self._h_buf: Vec = np.zeros(ns)
+        self._H_buf: Mat = np.zeros((ns, ns))
         if self.cfg.mapping not in ("flat", "paper"):
             raise ValueError(f"mapping must be 'flat' or 'paper', got {self.cfg.mapping!r}")
         if self.cfg.propagate not in ("corrected", "paper"):
@@ -177,6 +196,23 @@ class ImuHosmEstimator:
 
     def _prediction(self, s: OtsekfState, st: _Step) -> OtsekfPrediction:
         """Model quantities for k-1 -> k (Atmaca2025 eqs. 20, 25-27)."""
+        if self._kb is not None:
+            p = self._pred_buf
+            self._kb.prediction(
+                s.x_hat, s.x_bar, s.V, s.mu, st.u_m, self._f_hat, st.g_mps2, st.dt_s,
+                self._q_imu_diag, self._drift_var_rate, self.cfg.propagate == "corrected",
+                p.Phi, p.B, p.Qx, p.Qxmu, p.Qmu, p.x_bar_prop,
+            )  # fmt: skip
+            return p
+        return self._prediction_reference(s, st)
+
+    def _meas_compiled(self, x: Vec) -> tuple[Vec, Mat]:
+        assert self._kb is not None
+        self._kb.measurement(x, self._h_buf, self._H_buf)
+        return self._h_buf, self._H_buf
+
+    def _prediction_reference(self, s: OtsekfState, st: _Step) -> OtsekfPrediction:
+        """Numpy reference of :meth:`_prediction` (the compiled model mirrors it)."""
         dt, g, u_m, fh = st.dt_s, st.g_mps2, st.u_m, self._f_hat
         x_lin = s.x_hat  # eq. 26: linearise at x_hat_{k-1|k-1}
         F = body_gs_jac_x(x_lin, u_m, fh, g)
@@ -202,16 +238,16 @@ class ImuHosmEstimator:
         imu = frame.imu[0] if frame.imu else None
         if imu is None:
             return None, "imu 0 missing"
-        if frame.euler_rad is None or not np.all(np.isfinite(frame.euler_rad)):
+        if frame.euler_rad is None or not np.isfinite(frame.euler_rad).all():
             return None, "attitude missing"
         if frame.att_age_s > self.cfg.max_att_age_s:
             return None, "attitude stale"
-        if frame.gps_vel_ned_mps is None or not np.all(np.isfinite(frame.gps_vel_ned_mps)):
+        if frame.gps_vel_ned_mps is None or not np.isfinite(frame.gps_vel_ned_mps).all():
             return None, "gps velocity missing"
         if frame.gps_age_s > self.cfg.max_gps_age_s:
             return None, "gps velocity stale"
         u_m = np.concatenate([imu.acc_frd_mps2, imu.omega_frd_radps])
-        if not np.all(np.isfinite(u_m)):
+        if not np.isfinite(u_m).all():
             return None, "imu not finite"
         y = np.concatenate([frame.gps_vel_ned_mps, frame.euler_rad])
         if math.isfinite(frame.lat_rad) and math.isfinite(frame.alt_msl_m):
@@ -235,9 +271,16 @@ class ImuHosmEstimator:
             return self._estimate(frame.t_us, st, np.zeros(N_STATE), np.zeros(N_STATE), True)
         assert self._hosm is not None
         pred = self._prediction(self._filt, st)
+        compiled = self._kb is not None
         filt, innov = otsekf_step(
-            self._filt, pred, _meas, st.y, self._R,
-            gate_sigma=self.cfg.gate_sigma, wrap_idx=(_PSI,),
+            self._filt,
+            pred,
+            self._meas_compiled if compiled else _meas,
+            st.y,
+            self._R,
+            gate_sigma=self.cfg.gate_sigma,
+            wrap_idx=(_PSI,),
+            compiled=compiled,
         )
         self._t_prev_us = frame.t_us
         if not innov.numerics_ok:
@@ -246,10 +289,8 @@ class ImuHosmEstimator:
             return self._estimate(frame.t_us, st, np.zeros(N_STATE), np.zeros(N_STATE), False)
         self._filt = filt
         # eqs. 47-50 on mu_{k|k}, then eq. 51
-        self._hosm = hosm_step(self._hosm, filt.mu, self._lambdas, st.dt_s)
-        self._f_hat = drift_rate_to_fault(
-            self._hosm.z[1], filt.x_hat[3:], mapping=self.cfg.mapping
-        )
+        self._hosm = hosm_step(self._hosm, filt.mu, self._lambdas, st.dt_s, compiled=compiled)
+        self._f_hat = drift_rate_to_fault(self._hosm.z[1], filt.x_hat[3:], mapping=self.cfg.mapping)
         return self._estimate(frame.t_us, st, innov.nu, innov.test_ratio, True)
 
     def _estimate(self, t_us: int, st: _Step, nu: Vec, ratio: Vec, ok: bool) -> Estimate:
@@ -257,10 +298,14 @@ class ImuHosmEstimator:
         x = self._filt.x_hat
         fh = self._f_hat
         virt = st.u_m - fh
-        H = body_gs_meas_jac(x)
+        if self._kb is not None:
+            self._kb.measurement(x, self._h_buf, self._H_buf)
+            vel_ned = self._h_buf[:3].copy()
+        else:
+            vel_ned = body_gs_meas_jac(x)[:3, :3] @ x[:3]
         states: dict[str, Vec] = {
             "vel_frd_mps": x[:3].copy(),
-            "vel_ned_mps": H[:3, :3] @ x[:3],
+            "vel_ned_mps": vel_ned,
             "euler_rad": x[3:].copy(),
             "drift": self._filt.mu.copy(),
             "fault_hat": fh.copy(),
@@ -270,9 +315,9 @@ class ImuHosmEstimator:
             name=self.name,
             t_us=t_us,
             states=states,
-            faults={ch: float(v) for ch, v in zip(FAULT_CHANNELS, fh, strict=True)},
-            residuals={ch: float(v) for ch, v in zip(RESIDUAL_CHANNELS, nu, strict=True)},
-            virtual={ch: float(v) for ch, v in zip(FAULT_CHANNELS, virt, strict=True)},
+            faults=dict(zip(FAULT_CHANNELS, fh.tolist(), strict=True)),
+            residuals=dict(zip(RESIDUAL_CHANNELS, np.asarray(nu).tolist(), strict=True)),
+            virtual=dict(zip(FAULT_CHANNELS, virt.tolist(), strict=True)),
             numerics_ok=ok,
         )
 

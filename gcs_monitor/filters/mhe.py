@@ -44,7 +44,13 @@ from gcs_monitor.core.types import Mat, Vec
 
 
 class MheModel(Protocol):
-    """Discrete model x+ = f(x, u, theta, dt), y = h(x, theta) with Jacobians."""
+    """Discrete model x+ = f(x, u, theta, dt), y = h(x, theta) with Jacobians.
+
+    A model may also offer ``linearise_horizon(n, x_lin, u_lin, th, dts, ym, mk, a, b, f, cm,
+    ry) -> bool``, a compiled version of :func:`_linearise` (returning False when it cannot
+    run); the compiled :func:`mhe_step` then uses it instead of 3 n - 2 method calls
+    (``models.airdata.AirDataModel.linearise_horizon``).
+    """
 
     n_x: int
     n_u: int
@@ -179,7 +185,54 @@ def mhe_step(
     y_mask : (n_y,) 1 to use the output, 0 to zero its row of C_i (Wan2018 sec. V-C)
     theta_p : measured parameters Theta_k
     dt_s : t_s between samples k-1 and k
+
+    With ``ip.compiled`` and numba installed the step runs through the kernels of
+    ``filters/_mhe_jit.py`` (and the model's optional compiled ``linearise_horizon``); otherwise
+    through the numpy reference. Both implement the same algorithm.
     """
+    kern = compiled_kernel() if ip.compiled else None
+    if kern is not None:
+        return _step_compiled(kern, s, model, y, y_mask, theta_p, dt_s, weights, bounds, ip)
+    return _step_reference(s, model, y, y_mask, theta_p, dt_s, weights, bounds, ip)
+
+
+def _linearise(
+    model: MheModel,
+    n: int,
+    x_lin: Mat,
+    u_lin: Mat,
+    th: Mat,
+    dts: Vec,
+    ym: Mat,
+    mk: Mat,
+    a: Mat,
+    b: Mat,
+    f: Mat,
+    cm: Mat,
+    ry: Mat,
+) -> None:
+    """Wan2018 eq. 42 node by node through the model's methods (writes a, b, f, cm, ry)."""
+    for i in range(n):
+        cm[i] = model.h_jac_x(x_lin[i], th[i]) * mk[i][:, None]
+        ry[i] = (ym[i] - model.h(x_lin[i], th[i])) * mk[i]
+        if i < n - 1:
+            a[i] = model.f_jac_x(x_lin[i], u_lin[i], th[i], dts[i])
+            b[i] = model.f_jac_u(x_lin[i], u_lin[i], th[i], dts[i])
+            f[i] = model.f(x_lin[i], u_lin[i], th[i], dts[i]) - x_lin[i + 1]
+
+
+def _step_reference(
+    s: MheState,
+    model: MheModel,
+    y: Vec,
+    y_mask: Vec,
+    theta_p: Vec,
+    dt_s: float,
+    weights: MheWeights,
+    bounds: MheBounds,
+    ip: IpSettings,
+) -> tuple[MheState, MheInfo]:
+    """Plain numpy implementation of :func:`mhe_step` (the reference for the kernels)."""
     big_n = s.x.shape[0]
     n_x, n_u = model.n_x, model.n_u
     # --- shifting (real-time iteration): drop node l-1, append x_hat_{k|k-1} with u_hat = 0
@@ -216,13 +269,7 @@ def mhe_step(
     f = np.zeros((max(big_n - 1, 0), n_x))
     cm = np.zeros((big_n, model.n_y, n_x))
     ry = np.zeros((big_n, model.n_y))
-    for i in range(n):
-        cm[i] = model.h_jac_x(x_lin[i], th[i]) * mk[i][:, None]
-        ry[i] = (ym[i] - model.h(x_lin[i], th[i])) * mk[i]
-        if i < n - 1:
-            a[i] = model.f_jac_x(x_lin[i], u_lin[i], th[i], dts[i])
-            b[i] = model.f_jac_u(x_lin[i], u_lin[i], th[i], dts[i])
-            f[i] = model.f(x_lin[i], u_lin[i], th[i], dts[i]) - x_lin[i + 1]
+    _linearise(model, n, x_lin, u_lin, th, dts, ym, mk, a, b, f, cm, ry)
     ru = -u_lin
     if ip.constrained:
         dxl, dxu = bounds.x_lb - x_lin, bounds.x_ub - x_lin
@@ -232,54 +279,23 @@ def mhe_step(
         dxu = np.full_like(x_lin, np.inf)
         dul = np.full_like(u_lin, -np.inf)
         duu = np.full_like(u_lin, np.inf)
-    kernel = compiled_kernel() if ip.compiled else None
-    if kernel is not None:
-        dx = np.zeros_like(x_lin)
-        du = np.zeros_like(u_lin)
-        steps = np.zeros(ip.n_kappa * ip.n_qp)
-        kernel(  # type: ignore[operator]
-            n,
-            weights.p_diag,
-            weights.q_diag,
-            weights.r_diag,
-            a,
-            b,
-            cm,
-            f,
-            ry,
-            ru,
-            dxl,
-            dxu,
-            dul,
-            duu,
-            ip.constrained,
-            ip.n_kappa,
-            ip.n_qp,
-            ip.kappa_init,
-            ip.kappa_factor,
-            ip.n_s_max,
-            dx,
-            du,
-            steps,
-        )
-    else:
-        dx, du, steps = barrier_ip_qp(
-            n,
-            weights.p_diag,
-            weights.q_diag,
-            weights.r_diag,
-            a,
-            b,
-            cm,
-            f,
-            ry,
-            ru,
-            dxl,
-            dxu,
-            dul,
-            duu,
-            ip,
-        )
+    dx, du, steps = barrier_ip_qp(
+        n,
+        weights.p_diag,
+        weights.q_diag,
+        weights.r_diag,
+        a,
+        b,
+        cm,
+        f,
+        ry,
+        ru,
+        dxl,
+        dxu,
+        dul,
+        duu,
+        ip,
+    )
     x_new = x_lin + dx
     u_new = u_lin + du
     ok = bool(np.all(np.isfinite(x_new[:n])) and np.all(np.isfinite(u_new[: max(n - 1, 0)])))
@@ -479,227 +495,78 @@ def riccati_direction(
 
 
 # --------------------------------------------------------------------------------------------
-# Compiled kernel. The same Algorithms 1-2 written with explicit loops so that numba can compile
-# them; used by :func:`mhe_step` when numba is installed (optional, the ``bench`` extra). The
-# numpy functions above are the reference; tests check that both agree to round-off.
+# Compiled path (numba, filters/_mhe_jit.py), imported lazily so that importing this module stays
+# cheap. The numpy functions above are the reference; tests/gcs_monitor/filters/test_mhe.py checks
+# that both agree to round-off.
 
 
-def _chol_solve_inplace(s_mat: Mat, rhs: Mat) -> bool:
-    """Cholesky-factor s_mat (in place, lower) and overwrite rhs (m, k) with s_mat^-1 rhs."""
-    m = s_mat.shape[0]
-    for j in range(m):
-        d = s_mat[j, j]
-        for k in range(j):
-            d -= s_mat[j, k] * s_mat[j, k]
-        if not d > 0.0:
-            return False
-        d = np.sqrt(d)
-        s_mat[j, j] = d
-        for i in range(j + 1, m):
-            v = s_mat[i, j]
-            for k in range(j):
-                v -= s_mat[i, k] * s_mat[j, k]
-            s_mat[i, j] = v / d
-    for c in range(rhs.shape[1]):
-        for i in range(m):
-            v = rhs[i, c]
-            for k in range(i):
-                v -= s_mat[i, k] * rhs[k, c]
-            rhs[i, c] = v / s_mat[i, i]
-        for i in range(m - 1, -1, -1):
-            v = rhs[i, c]
-            for k in range(i + 1, m):
-                v -= s_mat[k, i] * rhs[k, c]
-            rhs[i, c] = v / s_mat[i, i]
-    return True
+class _Kernels(Protocol):
+    def shift(self, *args: object) -> int: ...
+
+    def ip_solve(self, *args: object) -> bool: ...
+
+    def rti_solve(self, *args: object) -> tuple[bool, int]: ...
 
 
-def _ip_kernel(
-    n: int,
-    p_diag: Vec,
-    q_diag: Vec,
-    r_diag: Vec,
-    a: Mat,
-    b: Mat,
-    cm: Mat,
-    f: Mat,
-    ry: Mat,
-    ru: Mat,
-    dxl: Mat,
-    dxu: Mat,
-    dul: Mat,
-    duu: Mat,
-    constrained: bool,
-    n_kappa: int,
-    n_qp: int,
-    kappa_init: float,
-    kappa_factor: float,
-    n_s_max: int,
-    dx: Mat,
-    du: Mat,
-    steps: Vec,
-) -> bool:
-    """Algorithm 1 + Algorithm 2 with loops; writes dx (N, n_x), du (N-1, n_u), steps."""
-    n_x = dx.shape[1]
-    n_u = du.shape[1]
-    n_y = cm.shape[1]
-    m = n_y + n_x if constrained else n_y
-    cbar = np.zeros((n, m, n_x))
-    rybar = np.zeros((n, m))
-    qbar = np.zeros((n, n_u))
-    rubar = np.zeros((n, n_u))
-    rp = np.zeros((n, n_x))
-    pi_ = np.zeros((n, m, n_x))
-    om = np.zeros((n, n_x, m))
-    kg = np.zeros((n, n_x, m))
-    pf = np.zeros((n, n_x, n_x))
-    s_mat = np.zeros((m, m))
-    rhs = np.zeros((m, n_x))
-    p_hat = np.zeros((n_x, n_x))
-    tmp = np.zeros((n_x, n_x))
-    xp = np.zeros((n, n_x))
-    rr = np.zeros((n, m))
-    x_hat = np.zeros(n_x)
-    d = np.zeros((n, n_x))
-    e = np.zeros((n, n_u))
-    lam = np.zeros(n_x)
-    xi_v = np.zeros(n_x)
-    dx[:, :] = 0.0
-    du[:, :] = 0.0
-    kappa = kappa_init
-    ok = True
-    for j in range(n_kappa * n_qp):
-        sk = np.sqrt(kappa)
-        # --- linearisation (46)
-        for i in range(n):
-            for r_ in range(n_y):
-                acc = ry[i, r_]
-                for c_ in range(n_x):
-                    cbar[i, r_, c_] = cm[i, r_, c_]
-                    acc -= cm[i, r_, c_] * dx[i, c_]
-                rybar[i, r_] = acc
-            if constrained:
-                for c_ in range(n_x):
-                    iu = 1.0 / (dxu[i, c_] - dx[i, c_])
-                    il = 1.0 / (dx[i, c_] - dxl[i, c_])
-                    lsq = np.sqrt(iu * iu + il * il)
-                    for cc in range(n_x):
-                        cbar[i, n_y + c_, cc] = 0.0
-                    cbar[i, n_y + c_, c_] = sk * lsq
-                    rybar[i, n_y + c_] = -sk * (iu - il) / lsq if lsq > 0.0 else 0.0
-            if i < n - 1:
-                for c_ in range(n_u):
-                    gu = 0.0
-                    lu2 = 0.0
-                    if constrained:
-                        iu = 1.0 / (duu[i, c_] - du[i, c_])
-                        il = 1.0 / (du[i, c_] - dul[i, c_])
-                        gu = iu - il
-                        lu2 = iu * iu + il * il
-                    qbar[i, c_] = 1.0 / (1.0 / q_diag[c_] + kappa * lu2)
-                    rubar[i, c_] = qbar[i, c_] * ((ru[i, c_] - du[i, c_]) / q_diag[c_] - kappa * gu)
-                for r_ in range(n_x):
-                    acc = -f[i, r_] + dx[i + 1, r_]
-                    for c_ in range(n_x):
-                        acc -= a[i, r_, c_] * dx[i, c_]
-                    for c_ in range(n_u):
-                        acc -= b[i, r_, c_] * du[i, c_]
-                    rp[i, r_] = acc
-        # --- Algorithm 2, factorisation
-        p_hat[:, :] = 0.0
-        for c_ in range(n_x):
-            p_hat[c_, c_] = p_diag[c_]
-        for i in range(n):
-            pi_[i] = cbar[i] @ p_hat
-            s_mat[:, :] = pi_[i] @ cbar[i].T
-            for r_ in range(n_y):
-                s_mat[r_, r_] += r_diag[r_]
-            for r_ in range(n_y, m):
-                s_mat[r_, r_] += 1.0
-            rhs[:, :] = cbar[i]
-            if not _chol_solve_inplace(s_mat, rhs):
-                ok = False
-            om[i] = rhs.T  # Omega = C_bar^T Xi (Xi symmetric)
-            kg[i] = p_hat @ om[i]
-            pf[i] = p_hat - kg[i] @ pi_[i]
-            if i < n - 1:
-                tmp[:, :] = a[i] @ pf[i]
-                p_hat[:, :] = tmp @ a[i].T
-                for r_ in range(n_x):
-                    for c_ in range(n_x):
-                        acc = 0.0
-                        for k in range(n_u):
-                            acc += b[i, r_, k] * qbar[i, k] * b[i, c_, k]
-                        p_hat[r_, c_] += acc
-        # forward recursion
-        for c_ in range(n_x):
-            x_hat[c_] = -dx[0, c_]
-        for i in range(n):
-            rr[i] = rybar[i] - cbar[i] @ x_hat
-            xp[i] = x_hat + kg[i] @ rr[i]
-            if i < n - 1:
-                x_hat[:] = -rp[i] + a[i] @ xp[i] + b[i] @ rubar[i]
-        # backward recursion
-        d[n - 1] = xp[n - 1]
-        lam[:] = -(om[n - 1] @ rr[n - 1])
-        for i in range(n - 2, -1, -1):
-            xi_v[:] = a[i].T @ lam
-            e[i] = rubar[i] - qbar[i] * (b[i].T @ lam)
-            d[i] = xp[i] - pf[i] @ xi_v
-            if i > 0:
-                lam[:] = xi_v - om[i] @ (rr[i] + pi_[i] @ xi_v)
-        # --- line search (Algorithm 1)
-        s = 1.0
-        if constrained:
-            s = 0.0
-            t = 1.0
-            for _ns in range(n_s_max + 1):
-                feas = True
-                for i in range(n):
-                    for c_ in range(n_x):
-                        v = dx[i, c_] + t * d[i, c_]
-                        if not (v > dxl[i, c_] and v < dxu[i, c_]):
-                            feas = False
-                    if i < n - 1:
-                        for c_ in range(n_u):
-                            v = du[i, c_] + t * e[i, c_]
-                            if not (v > dul[i, c_] and v < duu[i, c_]):
-                                feas = False
-                if feas:
-                    s = t
-                    break
-                t *= 0.5
-        steps[j] = s
-        for i in range(n):
-            for c_ in range(n_x):
-                dx[i, c_] += s * d[i, c_]
-            if i < n - 1:
-                for c_ in range(n_u):
-                    du[i, c_] += s * e[i, c_]
-        if (j + 1) % n_qp == 0:
-            kappa *= kappa_factor
-    return ok
+_KERNEL: list[object] = []  # [] = not tried yet, [None] = numba unavailable, [module] = loaded
 
 
-def _compile_kernel() -> object | None:
-    try:
-        import numba  # optional (bench extra)
-    except ImportError:
-        return None
-    chol = numba.njit(cache=True)(_chol_solve_inplace)
-    g = dict(_ip_kernel.__globals__)
-    g["_chol_solve_inplace"] = chol
-    import types
-
-    fn = types.FunctionType(_ip_kernel.__code__, g, "_ip_kernel_jit")
-    return numba.njit(cache=True)(fn)
-
-
-_KERNEL: list[object | None] = []  # filled on first use (lazy, no import-time compilation)
-
-
-def compiled_kernel() -> object | None:
-    """The numba-compiled IP kernel, or None when numba is not installed."""
+def compiled_kernel() -> _Kernels | None:
+    """The numba kernels module (``filters/_mhe_jit.py``), or None when numba is not installed."""
     if not _KERNEL:
-        _KERNEL.append(_compile_kernel())
-    return _KERNEL[0]
+        try:
+            from gcs_monitor.filters import _mhe_jit
+        except ImportError:  # pragma: no cover - numba missing
+            _KERNEL.append(None)
+        else:
+            _KERNEL.append(_mhe_jit)
+    return _KERNEL[0]  # type: ignore[return-value]
+
+
+def _step_compiled(
+    kern: _Kernels,
+    s: MheState,
+    model: MheModel,
+    y: Vec,
+    y_mask: Vec,
+    theta_p: Vec,
+    dt_s: float,
+    weights: MheWeights,
+    bounds: MheBounds,
+    ip: IpSettings,
+) -> tuple[MheState, MheInfo]:
+    """:func:`_step_reference` through the kernels: shift, model linearisation, QP, result."""
+    big_n = s.x.shape[0]
+    n_x, n_u, n_y = model.n_x, model.n_u, model.n_y
+    # x_hat_{k|k-1} = F(x_hat_{k-1|k-1}, 0, Theta_{k-1}), appended by the shift
+    x_node = model.f(s.x[s.n - 1], np.zeros(n_u), s.theta[s.n - 1], dt_s)
+    x_lin = np.empty_like(s.x)
+    u_lin = np.empty_like(s.u)
+    th = np.empty_like(s.theta)
+    dts = np.empty_like(s.dt_s)
+    ym = np.empty_like(s.y)
+    mk = np.empty_like(s.y_mask)
+    n = kern.shift(
+        s.x, s.u, s.theta, s.dt_s, s.y, s.y_mask, s.n, x_node, y, y_mask, theta_p, float(dt_s),
+        bounds.x_lb, bounds.x_ub, bounds.u_lb, bounds.u_ub, ip.constrained,
+        x_lin, u_lin, th, dts, ym, mk,
+    )  # fmt: skip
+    m1 = max(big_n - 1, 0)
+    a = np.zeros((m1, n_x, n_x))
+    b = np.zeros((m1, n_x, n_u))
+    f = np.zeros((m1, n_x))
+    cm = np.zeros((big_n, n_y, n_x))
+    ry = np.zeros((big_n, n_y))
+    lin = getattr(model, "linearise_horizon", None)
+    if lin is None or not lin(n, x_lin, u_lin, th, dts, ym, mk, a, b, f, cm, ry):
+        _linearise(model, n, x_lin, u_lin, th, dts, ym, mk, a, b, f, cm, ry)
+    x_new = np.empty_like(x_lin)
+    u_new = np.empty_like(u_lin)
+    steps = np.zeros(ip.n_kappa * ip.n_qp)
+    ok, n_active = kern.rti_solve(
+        n, weights.p_diag, weights.q_diag, weights.r_diag, a, b, cm, f, ry, x_lin, u_lin,
+        bounds.x_lb, bounds.x_ub, bounds.u_lb, bounds.u_ub, ip.constrained,
+        ip.n_kappa, ip.n_qp, ip.kappa_init, ip.kappa_factor, ip.n_s_max, x_new, u_new, steps,
+    )  # fmt: skip
+    new = MheState(x=x_new, u=u_new, theta=th, dt_s=dts, y=ym, y_mask=mk, n=n)
+    return new, MheInfo(step_sizes=steps, n_active=int(n_active), numerics_ok=bool(ok))

@@ -39,6 +39,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -143,6 +144,7 @@ def otsekf_step(
     *,
     gate_sigma: float,
     wrap_idx: tuple[int, ...] = (),
+    compiled: bool = True,
 ) -> tuple[OtsekfState, OtsekfInnovation]:
     """One predict/update of the optimal two-stage EKF (Atmaca2025 eqs. 20-42).
 
@@ -155,25 +157,48 @@ def otsekf_step(
     R : (m, m) measurement noise covariance (eq. 28)
     gate_sigma : innovation gate in standard deviations (for the test ratio only)
     wrap_idx : innovation components that are angles and are wrapped to (-pi, pi]
+    compiled : use the numba kernels (``filters/_otsekf_jit.py``, same equations) when numba is
+        installed; ``False`` runs the numpy reference below
 
     Returns
     -------
     new state and the innovation record. On a numerical failure the returned state is the input
     state (unchanged) and ``numerics_ok`` is False; the caller decides to reset.
     """
-    Phi, B, Qx, Qxmu, Qmu = pred.Phi, pred.B, pred.Qx, pred.Qxmu, pred.Qmu
-    # eqs. 30-31: bias random walk
-    mu_pred = s.mu
-    P_mu_pred = s.P_mu + Qmu
-    L_mu, ok_mu = cho_factor_lower(P_mu_pred)
-    m = y.shape[0]
-    bad = OtsekfInnovation(
+    if compiled:
+        kern = _kernels()
+        if kern is not None:
+            return _step_compiled(kern, s, pred, meas_fn, y, R, gate_sigma, wrap_idx)
+    return _step_reference(s, pred, meas_fn, y, R, gate_sigma, wrap_idx)
+
+
+def _bad_innovation(m: int) -> OtsekfInnovation:
+    return OtsekfInnovation(
         nu=np.full(m, np.nan),
         S=np.full((m, m), np.nan),
         test_ratio=np.full(m, np.nan),
         rejected=np.zeros(m, dtype=bool),
         numerics_ok=False,
     )
+
+
+def _step_reference(
+    s: OtsekfState,
+    pred: OtsekfPrediction,
+    meas_fn: MeasFn,
+    y: Vec,
+    R: Mat,
+    gate_sigma: float,
+    wrap_idx: tuple[int, ...],
+) -> tuple[OtsekfState, OtsekfInnovation]:
+    """Plain numpy implementation, equation by equation (the reference for the kernels)."""
+    Phi, B, Qx, Qxmu, Qmu = pred.Phi, pred.B, pred.Qx, pred.Qxmu, pred.Qmu
+    # eqs. 30-31: bias random walk
+    mu_pred = s.mu
+    P_mu_pred = s.P_mu + Qmu
+    L_mu, ok_mu = cho_factor_lower(P_mu_pred)
+    m = y.shape[0]
+    bad = _bad_innovation(m)
     if not ok_mu:
         return s, bad
     # eq. 37
@@ -238,3 +263,72 @@ def otsekf_step(
         nu=nu, S=C, test_ratio=test_ratio, rejected=test_ratio > 1.0, numerics_ok=True
     )
     return new, innov
+
+
+def _step_compiled(
+    kern: _Kernels,
+    s: OtsekfState,
+    pred: OtsekfPrediction,
+    meas_fn: MeasFn,
+    y: Vec,
+    R: Mat,
+    gate_sigma: float,
+    wrap_idx: tuple[int, ...],
+) -> tuple[OtsekfState, OtsekfInnovation]:
+    """The step through the numba kernels; same equations and order as the reference."""
+    n, b, m = s.x_bar.shape[0], s.mu.shape[0], y.shape[0]
+    U = np.empty((n, b))
+    x_bar_pred = np.empty(n)
+    P_bar_pred = np.empty((n, n))
+    P_mu_pred = np.empty((b, b))
+    x_hat_pred = np.empty(n)
+    if not kern.predict(
+        pred.x_bar_prop, pred.Phi, pred.B, pred.Qx, pred.Qxmu, pred.Qmu,
+        s.V, s.P_bar, s.mu, s.P_mu,
+        U, x_bar_pred, P_bar_pred, P_mu_pred, x_hat_pred,
+    ):  # fmt: skip
+        return s, _bad_innovation(m)
+    y_pred, H = meas_fn(x_hat_pred)
+    wrap = np.zeros(m, dtype=np.bool_)
+    for i in wrap_idx:
+        wrap[i] = True
+    x_bar, x_hat, mu = np.empty(n), np.empty(n), np.empty(b)
+    P_bar, P = np.empty((n, n)), np.empty((n, n))
+    P_mu, V = np.empty((b, b)), np.empty((n, b))
+    nu, C, ratio = np.empty(m), np.empty((m, m)), np.empty(m)
+    if not kern.update(
+        y, y_pred, H, R, wrap, gate_sigma,
+        x_bar_pred, P_bar_pred, U, s.mu, P_mu_pred,
+        x_bar, P_bar, mu, P_mu, V, x_hat, P, nu, C, ratio,
+    ):  # fmt: skip
+        return s, _bad_innovation(m)
+    new = OtsekfState(x_bar=x_bar, P_bar=P_bar, mu=mu, P_mu=P_mu, V=V, x_hat=x_hat, P=P)
+    innov = OtsekfInnovation(nu=nu, S=C, test_ratio=ratio, rejected=ratio > 1.0, numerics_ok=True)
+    return new, innov
+
+
+# ---------------------------------------------------------------------------------------------
+# Compiled kernels (numba, filters/_otsekf_jit.py), imported lazily so that importing this module
+# stays cheap. tests/gcs_monitor/filters/test_otsekf.py checks both paths agree.
+# ---------------------------------------------------------------------------------------------
+
+
+class _Kernels(Protocol):
+    def predict(self, *args: object) -> bool: ...
+
+    def update(self, *args: object) -> bool: ...
+
+
+_KERNELS: list[object] = []  # [] = not tried yet, [None] = numba unavailable, [module] = loaded
+
+
+def _kernels() -> _Kernels | None:
+    """The numba kernels module, imported on first use (None if numba is not installed)."""
+    if not _KERNELS:
+        try:
+            from gcs_monitor.filters import _otsekf_jit
+        except ImportError:  # pragma: no cover - numba missing
+            _KERNELS.append(None)
+        else:
+            _KERNELS.append(_otsekf_jit)
+    return _KERNELS[0]  # type: ignore[return-value]

@@ -25,6 +25,7 @@ and ``L`` an upper bound of ``|f^{(4)}|``, one per channel.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -65,7 +66,9 @@ def hosm_init(f0: Vec) -> HosmState:
     return HosmState(z=z)
 
 
-def hosm_step(s: HosmState, f: Vec, lambdas: Mat, dt_s: float) -> HosmState:
+def hosm_step(
+    s: HosmState, f: Vec, lambdas: Mat, dt_s: float, *, compiled: bool = True
+) -> HosmState:
     """One explicit-Euler step of the recursive third-order differentiator (eqs. 47-50).
 
     Parameters
@@ -74,11 +77,24 @@ def hosm_step(s: HosmState, f: Vec, lambdas: Mat, dt_s: float) -> HosmState:
     f : (nch,) sample of the differentiated signal at t_k (``mu_hat`` in the paper)
     lambdas : (4, nch) gains from :meth:`LevantGains.lambdas`
     dt_s : step (s)
+    compiled : use the numba kernel (``filters/_sliding_mode_jit.py``, same equations) when numba
+        is installed; ``False`` runs the numpy reference
 
     Returns
     -------
     state at t_{k+1}; ``z[1]`` is the derivative estimate (eq. 51)
     """
+    if compiled:
+        kern = _kernels()
+        if kern is not None:
+            z_next = np.empty_like(s.z)
+            kern.hosm_step(s.z, np.asarray(f, dtype=np.float64), lambdas, float(dt_s), z_next)
+            return HosmState(z=z_next)
+    return _hosm_step_reference(s, f, lambdas, dt_s)
+
+
+def _hosm_step_reference(s: HosmState, f: Vec, lambdas: Mat, dt_s: float) -> HosmState:
+    """Plain numpy implementation (the reference for the kernel)."""
     z0, z1, z2, z3 = s.z
     e0 = z0 - f
     v0 = -lambdas[0] * np.abs(e0) ** 0.75 * np.sign(e0) + z1
@@ -88,3 +104,22 @@ def hosm_step(s: HosmState, f: Vec, lambdas: Mat, dt_s: float) -> HosmState:
     v2 = -lambdas[2] * np.sqrt(np.abs(e2)) * np.sign(e2) + z3
     v3 = -lambdas[3] * np.sign(z3 - v2)
     return HosmState(z=np.stack([z0 + v0 * dt_s, z1 + v1 * dt_s, z2 + v2 * dt_s, z3 + v3 * dt_s]))
+
+
+class _Kernels(Protocol):
+    def hosm_step(self, *args: object) -> None: ...
+
+
+_KERNELS: list[object] = []  # [] = not tried yet, [None] = numba unavailable, [module] = loaded
+
+
+def _kernels() -> _Kernels | None:
+    """The numba kernel module, imported on first use (None if numba is not installed)."""
+    if not _KERNELS:
+        try:
+            from gcs_monitor.filters import _sliding_mode_jit
+        except ImportError:  # pragma: no cover - numba missing
+            _KERNELS.append(None)
+        else:
+            _KERNELS.append(_sliding_mode_jit)
+    return _KERNELS[0]  # type: ignore[return-value]

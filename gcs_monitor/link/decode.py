@@ -1,9 +1,25 @@
-"""pymavlink decoding on the hot path (``parse_buffer``) and per-sysid demultiplexing."""
+"""pymavlink decoding on the hot path and per-vehicle (sysid/compid) demultiplexing.
+
+The decoder drives pymavlink's own incremental parser (``MAVLink.parse_char``, the loop inside
+``parse_buffer``) with ``robust_parsing`` on, and never goes through ``mavutil``. Two things are
+added on top:
+
+* **Resynchronisation.** pymavlink drops a whole frame when its CRC fails. When the failure was
+  a corrupted length byte, that "frame" swallowed up to 280 bytes of the following good packets.
+  After a CRC/length failure, or an unknown message id (pymavlink does not check the CRC of
+  those, so noise shows up as "unknown"), the decoder re-feeds the frame minus its first byte,
+  so the next good packet inside it is found (one corrupt byte costs one packet, not several).
+* **Bounded buffer.** pymavlink only empties its buffer when a chunk ends exactly on a packet
+  boundary; on stream links (TCP, serial) the buffer is compacted after every chunk.
+
+Everything that cannot be passed on is counted (``counters`` link-wide, ``stats[sysid]`` per
+vehicle), never raised.
+"""
 
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from typing import Any
 
 from gcs_monitor.link.mav import mavlink
@@ -12,91 +28,186 @@ from gcs_monitor.link.stats import LinkCounters, LinkStats
 log = logging.getLogger(__name__)
 
 MSG_HEARTBEAT = mavlink.MAVLINK_MSG_ID_HEARTBEAT
-_BAD = mavlink.MAVLink_bad_data
-_UNKNOWN = mavlink.MAVLink_unknown
+MSG_BAD_DATA = mavlink.MAVLINK_MSG_ID_BAD_DATA
+MSG_UNKNOWN = mavlink.MAVLINK_MSG_ID_UNKNOWN
+MAV1_MAGIC = 0xFE
+MAV2_MAGIC = 0xFD
+MAV2_SYSID_OFFSET = 5
+MAV1_SYSID_OFFSET = 3
+MAX_BUFFER_BYTES = 1 << 16  # a stuck partial frame can never hold more than this
 
 
-class _NullFile:
-    def write(self, data: bytes) -> None:  # pragma: no cover - never sends
-        pass
+def _sender(buf: bytes | bytearray) -> int | None:
+    """Sysid from a raw frame's header, or None if the bytes are too short to say."""
+    if len(buf) > MAV2_SYSID_OFFSET and buf[0] == MAV2_MAGIC:
+        return buf[MAV2_SYSID_OFFSET]
+    if len(buf) > MAV1_SYSID_OFFSET and buf[0] == MAV1_MAGIC:
+        return buf[MAV1_SYSID_OFFSET]
+    return None
 
 
 class Decoder:
-    """Decodes byte chunks into messages, counting everything it cannot use.
+    """Decode byte chunks into MAVLink messages, per vehicle, counting what it cannot use.
 
-    ``feed`` returns the decoded messages in arrival order; BAD_DATA (CRC errors, garbage,
-    bad signatures, unknown ids) are counted in ``counters`` and not returned. Per-vehicle
-    statistics live in ``stats[sysid]``.
+    ``feed(data, wall_s)`` returns the decoded messages in arrival order (all sysids, minus
+    exact duplicates, BAD_DATA and unknown ids). ``stats[sysid]`` holds each sender's
+    :class:`LinkStats`; ``counters`` the link-wide :class:`LinkCounters`.
 
     Parameters
     ----------
-    signing_key : 32-byte MAVLink 2 signing key; when set, unsigned or badly signed packets
-        are rejected and counted as signature failures
+    signing_key : 32-byte MAVLink 2 signing key. When set, unsigned or badly signed packets are
+        rejected (counted as signature failures), except HEARTBEAT if ``allow_unsigned_heartbeat``.
+    resync : re-scan failed frames (module docstring); False gives plain pymavlink behaviour
     """
 
-    def __init__(self, *, signing_key: bytes | None = None) -> None:
-        self._mav = mavlink.MAVLink(_NullFile())
+    def __init__(self, *, signing_key: bytes | None = None,
+                 allow_unsigned_heartbeat: bool = False, resync: bool = True) -> None:
+        self.resync = resync
+        self._mav = mavlink.MAVLink(None)
         self._mav.robust_parsing = True
         if signing_key is not None:
             self._mav.signing.secret_key = signing_key
             self._mav.signing.sign_outgoing = False
-            self._mav.signing.allow_unsigned_callback = None
+            self._mav.signing.allow_unsigned_callback = (
+                (lambda mav, msg_id: msg_id == MSG_HEARTBEAT) if allow_unsigned_heartbeat
+                else None)
         self.counters = LinkCounters()
         self.stats: dict[int, LinkStats] = {}
-        self._last_wall = 0.0
 
     def vehicle_stats(self, sysid: int) -> LinkStats:
+        """The statistics of one sysid (created on first use)."""
         st = self.stats.get(sysid)
         if st is None:
             st = self.stats[sysid] = LinkStats(sysid)
         return st
 
+    def vehicles(self) -> list[int]:
+        """Sysids whose HEARTBEAT says they are vehicles (not GCS, radio or companion)."""
+        return sorted(s for s, st in self.stats.items() if st.is_vehicle)
+
+    def note_source(self, source: Any) -> None:
+        """Copy a source's drop/resync counters into ``counters`` (bounded-queue overflow)."""
+        c = self.counters
+        c.dropped_chunks = int(getattr(source, "dropped_chunks", 0))
+        c.dropped_bytes = int(getattr(source, "dropped_bytes", 0))
+        c.resync_bytes = int(getattr(source, "resync_bytes", 0))
+
+    def health(self) -> dict[str, Any]:
+        """JSON-ready link health: link-wide counters and every sender's statistics."""
+        return {"link": self.counters.as_dict(),
+                "senders": {str(k): v.as_dict() for k, v in sorted(self.stats.items())}}
+
     def feed(self, data: bytes, wall_s: float) -> list[Any]:
+        """Decode one chunk (any framing: a datagram, a TCP read, several tlog packets)."""
         c = self.counters
         c.bytes_in += len(data)
         c.chunks += 1
-        try:
-            msgs = self._mav.parse_buffer(data)
-        except Exception as exc:  # pymavlink raises on some malformed input even when robust
-            c.parse_errors += 1
-            log.debug("parse error: %s", exc)
-            self._mav.buf = bytearray()
-            self._mav.buf_index = 0
-            return []
-        if not msgs:
-            return []
+        mav = self._mav
+        parse = mav.parse_char
         out: list[Any] = []
         stats = self.stats
-        for m in msgs:
-            if isinstance(m, _BAD):
-                reason = getattr(m, "reason", "")
-                if "signature" in reason:
-                    c.bad_signature += 1
-                elif "unknown" in reason.lower():
-                    c.unknown_messages += 1
+        try:
+            m = parse(data)
+            while m is not None:
+                hdr = getattr(m, "_header", None)
+                if hdr is None or m._type == "BAD_DATA" or hdr.msgId < 0:
+                    self._reject(m)
                 else:
-                    c.parse_errors += 1
-                continue
-            if isinstance(m, _UNKNOWN):
-                c.unknown_messages += 1
-            hdr = m._header
-            sysid = hdr.srcSystem
-            st = stats.get(sysid)
-            if st is None:
-                st = stats[sysid] = LinkStats(sysid)
-            st.on_message(hdr.srcComponent, hdr.seq, m._type, len(m._msgbuf), wall_s)
-            if hdr.msgId == MSG_HEARTBEAT:
-                st.on_heartbeat(hdr.srcComponent, m.type, m.autopilot)
-            out.append(m)
-        c.bad_signature = max(c.bad_signature, int(getattr(self._mav.signing, "badsig_count", 0)))
+                    sysid = hdr.srcSystem
+                    st = stats.get(sysid)
+                    if st is None:
+                        st = stats[sysid] = LinkStats(sysid)
+                    if st.on_packet(hdr.srcComponent, hdr.seq, m._type, m._msgbuf, wall_s):
+                        if hdr.msgId == MSG_HEARTBEAT:
+                            st.on_heartbeat(hdr.srcComponent, m.type, m.autopilot)
+                        out.append(m)
+                    else:
+                        c.duplicates += 1
+                m = parse(b"")
+        except Exception as exc:  # robust_parsing should prevent this; never let bytes kill us
+            c.parse_errors += 1
+            log.debug("parse error: %s", exc)
+            mav.buf = bytearray()
+            mav.buf_index = 0
+            mav.expected_length = mavlink.HEADER_LEN_V1 + 2
+        if mav.buf_index:  # compact: keep only the unparsed tail (bounded memory)
+            del mav.buf[:mav.buf_index]
+            mav.buf_index = 0
+        if len(mav.buf) > MAX_BUFFER_BYTES:
+            c.parse_errors += 1
+            mav.buf = bytearray()
         return out
 
+    def flush(self, wall_s: float = 0.0) -> list[Any]:
+        """End of input: re-scan bytes held by a frame that never completed (cut or fake length).
 
-def decode_all(chunks: Any, on_message: Callable[[Any], None],
+        Each pass drops the first held byte and parses the rest, so good packets behind a
+        corrupted length byte at the very end of a file are still delivered.
+        """
+        out: list[Any] = []
+        mav = self._mav
+        while len(mav.buf) - mav.buf_index > 0:
+            rest = bytes(mav.buf[mav.buf_index + 1:])
+            self.counters.garbage_bytes += 1
+            mav.buf = bytearray()
+            mav.buf_index = 0
+            mav.expected_length = mavlink.HEADER_LEN_V1 + 2
+            out += self.feed(rest, wall_s)
+            self.counters.chunks -= 1
+            self.counters.bytes_in -= len(rest)
+        return out
+
+    def _reject(self, m: Any) -> None:
+        c = self.counters
+        raw = bytes(m._msgbuf)
+        sysid = _sender(raw)
+        if m._type != "BAD_DATA":
+            # MAVLink_unknown: id not in the dialect. pymavlink returns these before any CRC
+            # check, so noise that looks like a frame start lands here too, and its length
+            # byte may span good packets: count it, then re-scan it like a CRC failure.
+            c.unknown_messages += 1
+            st = self.stats.get(sysid) if sysid is not None else None
+            if st is not None:  # noise must not invent senders
+                st.unknown_messages += 1
+        else:
+            reason = m.reason
+            if reason == "Bad prefix":
+                c.garbage_bytes += len(raw)
+                return
+            if "signature" in reason:
+                c.bad_signature += 1
+                if sysid is not None:
+                    self.vehicle_stats(sysid).signature_failures += 1
+                return
+            c.parse_errors += 1
+        # resync: re-scan the failed frame from its second byte (see module docstring)
+        if self.resync and len(raw) > 1:
+            mav = self._mav
+            tail = mav.buf[mav.buf_index:]
+            mav.buf = bytearray(raw[1:]) + tail
+            mav.buf_index = 0
+            mav.expected_length = mavlink.HEADER_LEN_V1 + 2
+
+
+def split_by_sysid(msgs: Iterable[Any]) -> dict[int, list[Any]]:
+    """Group decoded messages by sender sysid, keeping arrival order within each vehicle."""
+    out: dict[int, list[Any]] = {}
+    for m in msgs:
+        s = m._header.srcSystem
+        lst = out.get(s)
+        if lst is None:
+            out[s] = [m]
+        else:
+            lst.append(m)
+    return out
+
+
+def decode_all(chunks: Iterable[tuple[bytes, float]], on_message: Callable[[Any], None],
                decoder: Decoder | None = None) -> Decoder:
     """Feed every (bytes, wall_s) chunk through a decoder, calling ``on_message`` per message."""
     dec = decoder or Decoder()
     for data, wall in chunks:
         for m in dec.feed(data, wall):
             on_message(m)
+    dec.note_source(chunks)
     return dec

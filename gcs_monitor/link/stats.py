@@ -1,20 +1,69 @@
-"""Per-vehicle link statistics: counts, bytes, rates, losses from sequence gaps, errors."""
+"""Link statistics: per vehicle (sysid) counts, bytes, rates, losses from sequence gaps, errors.
+
+Everything the link layer cannot pass on is counted here, never raised (docs/style.md sec. 7).
+Memory is bounded: per-type tables are capped at ``MAX_TYPES`` names, sequence state is kept per
+component id (at most 256), and nothing grows with the number of messages.
+"""
 
 from __future__ import annotations
 
+import builtins
 from dataclasses import dataclass, field
 from typing import Any
+
+SEQ_MOD = 256  # MAVLink sequence numbers wrap at 256
+SEQ_HALF = SEQ_MOD // 2  # a backward step of less than half the space is a late packet
+MAX_TYPES = 400  # per-type tables stop growing here (unknown ids go to "OTHER")
+# Duplicate-sysid heuristic: two independent senders with one sysid interleave two sequence
+# streams, so roughly half of all steps go backwards, for as long as both send. Reordering by a
+# radio or UDP gives a few percent; a reboot seen through a buffering radio gives a short burst
+# (the real dronekit tlog peaks at 0.6 for a few dozen packets). So: EWMA of "step went
+# backwards" with weight 1/DUP_EWMA_N, and the flag needs it above DUP_THRESHOLD for
+# DUP_SUSTAIN consecutive packets of that component.
+DUP_EWMA_N = 64
+DUP_THRESHOLD = 0.25
+DUP_SUSTAIN = 256
+RATE_WINDOW_S = 5.0  # recent per-type rates are measured over windows of this wall time
+MAV_TYPE_GCS = 6
+NON_VEHICLE_TYPES = frozenset({MAV_TYPE_GCS, 18, 26, 27, 30})  # GCS, ONBOARD_CONTROLLER, ...
+
+
+class _SeqState:
+    """Sequence tracking of one (sysid, compid) stream."""
+
+    __slots__ = ("last", "last_buf", "back_ewma", "high_run")
+
+    def __init__(self, seq: int, buf: bytes) -> None:
+        self.last = seq
+        self.last_buf = buf
+        self.back_ewma = 0.0
+        self.high_run = 0
 
 
 @dataclass
 class LinkStats:
     """Statistics of one vehicle (sysid) on one link.
 
-    Sequence gaps are tracked per (sysid, compid): a forward jump of g > 1 counts g - 1 lost
-    packets; a backward jump of less than half the sequence space counts a duplicate or a
-    reordered packet. Two independent senders with the same sysid interleave two sequence
-    streams: a high share of backward jumps, or a HEARTBEAT whose type/autopilot changes for
-    the same (sysid, compid), sets ``duplicate_sysid``.
+    Sequence gaps are tracked per (sysid, compid) with wraparound at 256: a forward step of
+    g > 1 counts g - 1 lost packets; a repeat of the previous packet is a duplicate (dropped by
+    the decoder); a backward step of less than 128 is a late (reordered) packet, which was
+    counted lost when its successor arrived, so it is taken back off ``lost``. Two senders with
+    the same sysid (interleaved sequence streams, or a HEARTBEAT whose type/autopilot changes on
+    one (sysid, compid)) set ``duplicate_sysid``.
+
+    Attributes
+    ----------
+    messages, bytes : decoded packets and their wire bytes
+    per_type, per_type_bytes : the same per message name
+    recent_rates_hz : per-type rates over the last complete ``RATE_WINDOW_S`` of wall time
+    lost : packets missing from the sequence (``loss_pct`` relates them to the expected total)
+    duplicates : exact repeats of the previous packet (dropped)
+    reordered : packets that arrived after a later one
+    bad_values : per ``MESSAGE.field``, values that were NaN/inf or physically impossible
+    time_backwards : vehicle-time steps backwards that were not reboots (samples dropped)
+    reboots : vehicle time restarted (autopilot reboot): the assembler was reset
+    unknown_messages : well-framed packets whose id is not in the dialect
+    signature_failures : MAVLink 2 packets that failed signing checks (where the sender is known)
     """
 
     sysid: int
@@ -23,38 +72,81 @@ class LinkStats:
     per_type: dict[str, int] = field(default_factory=dict)
     per_type_bytes: dict[str, int] = field(default_factory=dict)
     lost: int = 0
+    duplicates: int = 0
     reordered: int = 0
     duplicate_sysid: bool = False
     heartbeat_conflicts: int = 0
     signature_failures: int = 0
+    unknown_messages: int = 0
     bad_values: dict[str, int] = field(default_factory=dict)
-    time_reorders: int = 0
-    duplicates_dropped: int = 0
+    time_backwards: int = 0
+    clock_conflicts: int = 0  # two vehicle clocks interleaving (assembler)
+    duplicates_dropped: int = 0  # same-timestamp samples dropped by the assembler
     reboots: int = 0
+    primary_imu_switches: int = 0
     first_wall_s: float = float("nan")
     last_wall_s: float = float("nan")
     last_vehicle_t_us: int = 0
-    _last_seq: dict[int, int] = field(default_factory=dict)
-    _heartbeat: dict[int, tuple[int, int]] = field(default_factory=dict)
+    mav_type: int = -1
+    autopilot: int = -1
+    recent_rates_hz: dict[str, float] = field(default_factory=dict)
+    _win_start_s: float = float("nan")
+    _win_counts: dict[str, int] = field(default_factory=dict, repr=False)
+    _seq: dict[int, _SeqState] = field(default_factory=dict, repr=False)
+    _heartbeat: dict[int, tuple[int, int]] = field(default_factory=dict, repr=False)
 
-    def on_message(self, compid: int, seq: int, name: str, nbytes: int, wall_s: float) -> None:
+    def on_packet(self, compid: int, seq: int, name: str, buf: builtins.bytes,
+                  wall_s: float) -> bool:
+        """Account one decoded packet; False if it is an exact repeat of the previous one."""
+        st = self._seq.get(compid)
+        if st is None:
+            self._seq[compid] = _SeqState(seq, buf)
+        else:
+            gap = (seq - st.last) % SEQ_MOD
+            back = 0.0
+            if gap == 0:
+                if buf == st.last_buf:
+                    self.duplicates += 1
+                    return False
+                back = 1.0  # same seq, different packet: another sender
+            elif gap > SEQ_HALF:
+                back = 1.0
+                self.reordered += 1
+                if self.lost > 0:
+                    self.lost -= 1  # it was counted lost when its successor arrived
+            else:
+                self.lost += gap - 1
+                st.last = seq
+            st.last_buf = buf
+            st.back_ewma += (back - st.back_ewma) / DUP_EWMA_N
+            if st.back_ewma > DUP_THRESHOLD:
+                st.high_run += 1
+                if st.high_run >= DUP_SUSTAIN:
+                    self.duplicate_sysid = True
+            else:
+                st.high_run = 0
+        nbytes = len(buf)
         self.messages += 1
         self.bytes += nbytes
-        self.per_type[name] = self.per_type.get(name, 0) + 1
+        pt = self.per_type
+        if name not in pt and len(pt) >= MAX_TYPES:
+            name = "OTHER"
+        pt[name] = pt.get(name, 0) + 1
         self.per_type_bytes[name] = self.per_type_bytes.get(name, 0) + nbytes
         if self.first_wall_s != self.first_wall_s:
-            self.first_wall_s = wall_s
+            self.first_wall_s = self._win_start_s = wall_s
         self.last_wall_s = wall_s
-        last = self._last_seq.get(compid)
-        if last is not None:
-            gap = (seq - last) % 256
-            if gap == 0 or gap > 128:
-                self.reordered += 1
-                if self.messages > 50 and self.reordered > 0.2 * self.messages:
-                    self.duplicate_sysid = True
-                return  # keep the highest sequence seen
-            self.lost += gap - 1
-        self._last_seq[compid] = seq
+        if wall_s - self._win_start_s >= RATE_WINDOW_S:
+            self._close_rate_window(wall_s)
+        return True
+
+    def _close_rate_window(self, wall_s: float) -> None:
+        dt = wall_s - self._win_start_s
+        old = self._win_counts
+        self.recent_rates_hz = {k: (v - old.get(k, 0)) / dt for k, v in self.per_type.items()
+                                if v != old.get(k, 0)}
+        self._win_counts = dict(self.per_type)
+        self._win_start_s = wall_s
 
     def on_heartbeat(self, compid: int, mav_type: int, autopilot: int) -> None:
         prev = self._heartbeat.get(compid)
@@ -62,26 +154,60 @@ class LinkStats:
             self.heartbeat_conflicts += 1
             self.duplicate_sysid = True
         self._heartbeat[compid] = (mav_type, autopilot)
+        if compid == 1 or self.mav_type < 0:
+            self.mav_type, self.autopilot = mav_type, autopilot
 
-    def bad_value(self, name: str) -> None:
-        self.bad_values[name] = self.bad_values.get(name, 0) + 1
+    def bad_value(self, name: str, n: int = 1) -> None:
+        """Count ``n`` bad values of field ``name`` (``MESSAGE.field``)."""
+        bv = self.bad_values
+        if name not in bv and len(bv) >= MAX_TYPES:
+            name = "OTHER"
+        bv[name] = bv.get(name, 0) + n
+
+    @property
+    def is_vehicle(self) -> bool:
+        """A HEARTBEAT says this sysid is a vehicle (not a GCS, companion or radio)."""
+        return self.mav_type >= 0 and self.mav_type not in NON_VEHICLE_TYPES
 
     @property
     def loss_pct(self) -> float:
         total = self.messages + self.lost
         return 100.0 * self.lost / total if total else 0.0
 
-    def as_dict(self) -> dict[str, Any]:
+    @property
+    def span_s(self) -> float:
         span = self.last_wall_s - self.first_wall_s
-        rates = ({k: v / span for k, v in self.per_type.items()} if span > 0 else {})
+        return span if span > 0 else 0.0
+
+    def rates_hz(self) -> dict[str, float]:
+        """Mean rate of each message type over the observed wall-time span."""
+        span = self.span_s
+        if span <= 0:
+            return {}
+        return {k: v / span for k, v in self.per_type.items()}
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready summary (health queryable)."""
+        span = self.span_s
         return {
-            "sysid": self.sysid, "messages": self.messages, "bytes": self.bytes,
+            "sysid": self.sysid, "is_vehicle": self.is_vehicle, "mav_type": self.mav_type,
+            "autopilot": self.autopilot, "messages": self.messages, "bytes": self.bytes,
+            "span_s": span, "rate_hz": self.messages / span if span > 0 else 0.0,
+            "bytes_per_s": self.bytes / span if span > 0 else 0.0,
             "per_type": dict(self.per_type), "per_type_bytes": dict(self.per_type_bytes),
-            "rates_hz": rates, "lost": self.lost, "loss_pct": self.loss_pct,
-            "reordered": self.reordered, "duplicate_sysid": self.duplicate_sysid,
-            "signature_failures": self.signature_failures, "bad_values": dict(self.bad_values),
-            "time_reorders": self.time_reorders, "duplicates_dropped": self.duplicates_dropped,
+            "rates_hz": self.rates_hz(), "recent_rates_hz": dict(self.recent_rates_hz),
+            "lost": self.lost, "loss_pct": self.loss_pct,
+            "duplicates": self.duplicates, "reordered": self.reordered,
+            "duplicate_sysid": self.duplicate_sysid,
+            "heartbeat_conflicts": self.heartbeat_conflicts,
+            "signature_failures": self.signature_failures,
+            "unknown_messages": self.unknown_messages, "bad_values": dict(self.bad_values),
+            "bad_values_total": sum(self.bad_values.values()),
+            "time_backwards": self.time_backwards, "clock_conflicts": self.clock_conflicts,
+            "duplicates_dropped": self.duplicates_dropped,
             "reboots": self.reboots, "boot_count": self.reboots,
+            "primary_imu_switches": self.primary_imu_switches,
+            "last_vehicle_t_us": self.last_vehicle_t_us,
         }
 
 
@@ -92,11 +218,13 @@ class LinkCounters:
     bytes_in: int = 0
     chunks: int = 0
     parse_errors: int = 0  # CRC failures and undecodable bytes (pymavlink BAD_DATA)
+    garbage_bytes: int = 0  # bytes between packets that are no MAVLink frame
     bad_signature: int = 0
-    unknown_messages: int = 0
-    dropped_chunks: int = 0  # input queue overflow (bounded memory)
+    unknown_messages: int = 0  # valid framing, message id not in the dialect
+    duplicates: int = 0  # exact repeats dropped by the decoder
+    dropped_chunks: int = 0  # input queue overflow (bounded memory), copied from the source
     dropped_bytes: int = 0
     resync_bytes: int = 0  # tlog bytes skipped to find the next record
 
     def as_dict(self) -> dict[str, int]:
-        return dict(self.__dict__)
+        return {k: int(v) for k, v in self.__dict__.items()}

@@ -22,6 +22,14 @@ TLOG_HEADER = struct.Struct(">Q")
 MAV1_MAGIC = 0xFE
 MAV2_MAGIC = 0xFD
 MAV2_SIGNED = 0x01
+MAV1_OVERHEAD = 8  # header 6 + CRC 2
+MAV2_OVERHEAD = 12  # header 10 + CRC 2
+MAV2_SIGNATURE = 13
+DEFAULT_MAX_QUEUE_CHUNKS = 20_000
+DEFAULT_MAX_QUEUE_BYTES = 16 << 20  # 16 MiB of unprocessed input at most
+DEFAULT_SERIAL_BAUD = 57_600
+GCS_SYSID = 255
+GCS_COMPID = 190
 
 
 class SourceError(ValueError):
@@ -29,29 +37,40 @@ class SourceError(ValueError):
 
 
 class _BoundedQueue:
-    """Thread-safe drop-oldest queue of chunks with counted drops."""
+    """Thread-safe drop-oldest queue of chunks with counted drops, bounded in chunks and bytes."""
 
-    def __init__(self, max_chunks: int) -> None:
+    def __init__(self, max_chunks: int, max_bytes: int = DEFAULT_MAX_QUEUE_BYTES) -> None:
         self._q: collections.deque[tuple[bytes, float]] = collections.deque()
         self._max = max_chunks
+        self._max_bytes = max_bytes
+        self._bytes = 0
         self._cv = threading.Condition()
         self.dropped_chunks = 0
         self.dropped_bytes = 0
+        self.high_water = 0
 
     def put(self, item: tuple[bytes, float]) -> None:
         with self._cv:
-            if len(self._q) >= self._max:
+            self._q.append(item)
+            self._bytes += len(item[0])
+            while len(self._q) > self._max or (self._bytes > self._max_bytes and len(self._q) > 1):
                 old = self._q.popleft()
+                self._bytes -= len(old[0])
                 self.dropped_chunks += 1
                 self.dropped_bytes += len(old[0])
-            self._q.append(item)
+            self.high_water = max(self.high_water, len(self._q))
             self._cv.notify()
 
     def get(self, timeout: float) -> tuple[bytes, float] | None:
         with self._cv:
             if not self._q and not self._cv.wait_for(lambda: bool(self._q), timeout):
                 return None
-            return self._q.popleft()
+            item = self._q.popleft()
+            self._bytes -= len(item[0])
+            return item
+
+    def __len__(self) -> int:
+        return len(self._q)
 
 
 class Source:
@@ -71,6 +90,12 @@ class Source:
 
     def write(self, data: bytes) -> None:
         """Send bytes back over the link (requests, heartbeats); no-op where impossible."""
+
+    def __enter__(self) -> Source:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
 
 
 class _ThreadedSource(Source):
@@ -112,7 +137,8 @@ class _ThreadedSource(Source):
 class UdpSource(_ThreadedSource):
     """``udpin:HOST:PORT`` (bind and listen) or ``udpout:HOST:PORT`` (send first, then read)."""
 
-    def __init__(self, host: str, port: int, *, listen: bool, max_chunks: int = 20_000,
+    def __init__(self, host: str, port: int, *, listen: bool,
+                 max_chunks: int = DEFAULT_MAX_QUEUE_CHUNKS,
                  idle_timeout_s: float | None = None) -> None:
         super().__init__(max_chunks, idle_timeout_s)
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -131,9 +157,9 @@ class UdpSource(_ThreadedSource):
         self._start()
 
     def _run(self) -> None:
-        if self._peer is not None:  # udpout: a heartbeat-sized hello opens the path
+        if self._peer is not None:  # udpout: a GCS HEARTBEAT tells the vehicle where we are
             try:
-                self.sock.sendto(b"\x00", self._peer)
+                self.sock.sendto(gcs_heartbeat(), self._peer)
             except OSError:
                 pass
         while not self._stop.is_set():
@@ -163,7 +189,7 @@ class UdpSource(_ThreadedSource):
 class TcpSource(_ThreadedSource):
     """``tcp:HOST:PORT``: connect as a client (as to SITL or a telemetry server)."""
 
-    def __init__(self, host: str, port: int, *, max_chunks: int = 20_000,
+    def __init__(self, host: str, port: int, *, max_chunks: int = DEFAULT_MAX_QUEUE_CHUNKS,
                  idle_timeout_s: float | None = None) -> None:
         super().__init__(max_chunks, idle_timeout_s)
         try:
@@ -201,7 +227,8 @@ class TcpSource(_ThreadedSource):
 class SerialSource(_ThreadedSource):
     """``/dev/ttyX[:BAUD]`` through pyserial (optional dependency)."""
 
-    def __init__(self, device: str, baud: int, *, max_chunks: int = 20_000) -> None:
+    def __init__(self, device: str, baud: int, *,
+                 max_chunks: int = DEFAULT_MAX_QUEUE_CHUNKS) -> None:
         super().__init__(max_chunks, None)
         try:
             import serial  # type: ignore[import-untyped]
@@ -235,7 +262,8 @@ class ZenohSource(_ThreadedSource):
     ``tcp/127.0.0.1:7447``). The session is always closed (stack-notes sec. 3).
     """
 
-    def __init__(self, keyexpr: str, endpoints: list[str], *, max_chunks: int = 20_000,
+    def __init__(self, keyexpr: str, endpoints: list[str], *,
+                 max_chunks: int = DEFAULT_MAX_QUEUE_CHUNKS,
                  idle_timeout_s: float | None = None) -> None:
         super().__init__(max_chunks, idle_timeout_s)
         import zenoh
@@ -246,42 +274,59 @@ class ZenohSource(_ThreadedSource):
         conf.insert_json5("scouting/gossip/enabled", "false")
         conf.insert_json5("connect/endpoints", json.dumps(endpoints))
         self._session = zenoh.open(conf)
-        self._sub = self._session.declare_subscriber(
-            keyexpr, lambda s: self._queue.put((bytes(s.payload.to_bytes()), time.time())))
+        try:  # a callback subscriber left open hangs the process at exit (stack-notes sec. 3)
+            self._sub = self._session.declare_subscriber(keyexpr, self._on_sample)
+        except Exception as exc:
+            self._session.close()  # type: ignore[no-untyped-call]
+            raise SourceError(f"zenoh:{keyexpr}: cannot subscribe: {exc}") from None
+        self._closed = False
+
+    def _on_sample(self, sample: Any) -> None:
+        self._queue.put((bytes(sample.payload.to_bytes()), time.time()))
 
     def _run(self) -> None:  # callbacks deliver; nothing to poll
         pass
 
     def close(self) -> None:
         super().close()
+        if self._closed:
+            return
+        self._closed = True
         try:
-            self._sub.undeclare()
+            self._sub.undeclare()  # type: ignore[no-untyped-call]
         finally:
-            self._session.close()
+            self._session.close()  # type: ignore[no-untyped-call]
 
 
 class TlogSource(Source):
     """A .tlog: 8-byte big-endian µs timestamp + one raw packet per record.
 
-    Records are walked by their MAVLink lengths; a record whose magic byte is wrong is skipped
-    byte by byte (counted in ``resync_bytes``); a truncated tail ends the file cleanly.
-    Packets are batched into chunks of about ``chunk_bytes`` to keep per-call overhead low.
+    Records are walked by their MAVLink lengths; where the byte after a timestamp is no MAVLink
+    magic the walker advances byte by byte (counted in ``resync_bytes``) until a record lines up.
+    A file cut mid-record ends cleanly (``truncated_bytes`` says how much was left). Packets are
+    batched into chunks of about ``chunk_bytes``; a chunk's time is its last record's timestamp.
 
     Parameters
     ----------
     speed : replay speed factor against the recorded timestamps (None: as fast as possible)
+    on_progress : called with (bytes done, total bytes) after every chunk (e.g. a tqdm bar)
     """
 
-    def __init__(self, path: Path, *, speed: float | None = None, chunk_bytes: int = 16384,
+    def __init__(self, path: Path | str, *, speed: float | None = None,
+                 chunk_bytes: int = 16384,
                  on_progress: Callable[[int, int], None] | None = None) -> None:
         self.path = Path(path)
-        if not self.path.exists():
+        if not self.path.is_file():
             raise SourceError(f"{self.path}: no such file")
+        if speed is not None and not speed > 0:
+            raise SourceError(f"replay speed must be > 0, got {speed}")
         self.speed = speed
         self.chunk_bytes = chunk_bytes
         self.total_bytes = self.path.stat().st_size
         self.on_progress = on_progress
         self.resync_bytes = 0
+        self.truncated_bytes = 0
+        self.records = 0
         self.position = 0
 
     def __iter__(self) -> Iterator[tuple[bytes, float]]:
@@ -299,14 +344,16 @@ class TlogSource(Source):
         t0_rec: float | None = None
         t0_wall = time.monotonic()
         unpack = TLOG_HEADER.unpack_from
+        records = 0
         while p + 9 <= n:
             magic = buf[p + 8]
             if magic == MAV2_MAGIC:
                 if p + 11 > n:
                     break
-                length = buf[p + 9] + 12 + (13 if buf[p + 10] & MAV2_SIGNED else 0)
+                length = buf[p + 9] + MAV2_OVERHEAD + (
+                    MAV2_SIGNATURE if buf[p + 10] & MAV2_SIGNED else 0)
             elif magic == MAV1_MAGIC:
-                length = buf[p + 9] + 8
+                length = buf[p + 9] + MAV1_OVERHEAD
             else:
                 p += 1
                 self.resync_bytes += 1
@@ -315,21 +362,27 @@ class TlogSource(Source):
             if end > n:
                 break  # truncated mid-packet
             t_rec = unpack(buf, p)[0] * 1e-6
+            if t0_rec is None:
+                t0_rec = t_rec
             parts.append(buf[p + 8:end])
+            records += 1
             size += length
             p = end
             if size >= self.chunk_bytes:
                 if self.speed is not None:
-                    t0_rec = t_rec if t0_rec is None else t0_rec
                     self._pace(t_rec - t0_rec, t0_wall)
                 self.position = p
+                self.records = records
                 if self.on_progress is not None:
                     self.on_progress(p, n)
                 yield b"".join(parts), t_rec
                 parts, size = [], 0
-        self.resync_bytes += max(0, n - p) if p < n and not parts else 0
+        self.truncated_bytes = n - p
         self.position = n
+        self.records = records
         if parts:
+            if self.speed is not None and t0_rec is not None:
+                self._pace(t_rec - t0_rec, t0_wall)
             yield b"".join(parts), t_rec
         if self.on_progress is not None:
             self.on_progress(n, n)
@@ -339,6 +392,16 @@ class TlogSource(Source):
         wait = t0_wall + t_rel / self.speed - time.monotonic()
         if wait > 0:
             time.sleep(wait)
+
+
+def gcs_heartbeat() -> bytes:
+    """One MAVLink 2 HEARTBEAT from a GCS (sysid 255, compid 190)."""
+    from gcs_monitor.link.mav import mavlink
+
+    mav = mavlink.MAVLink(None, srcSystem=GCS_SYSID, srcComponent=GCS_COMPID)
+    msg = mavlink.MAVLink_heartbeat_message(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID,
+                                            0, 0, mavlink.MAV_STATE_ACTIVE, 3)
+    return bytes(msg.pack(mav))
 
 
 def open_source(url: str, *, speed: float | None = None, idle_timeout_s: float | None = None,
@@ -363,7 +426,7 @@ def open_source(url: str, *, speed: float | None = None, idle_timeout_s: float |
         return ZenohSource(key, endpoints, idle_timeout_s=idle_timeout_s)
     if url.startswith("/dev/"):
         dev, _, baud = url.partition(":")
-        return SerialSource(dev, int(baud) if baud.isdigit() else 57600)
+        return SerialSource(dev, int(baud) if baud.isdigit() else DEFAULT_SERIAL_BAUD)
     if url.endswith(".tlog") or Path(url).is_file():
         return TlogSource(Path(url), speed=speed, on_progress=on_progress)
     raise SourceError(f"cannot open {url!r}: expected one of {forms}")

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -215,3 +216,66 @@ class AirDataModel:
 
     def h_jac_x(self, x: Vec, theta_p: Vec) -> Mat:
         return airdata_h_jac_x(x, theta_p)
+
+    def linearise_horizon(
+        self,
+        n: int,
+        x_lin: Mat,
+        u_lin: Mat,
+        th: Mat,
+        dts: Vec,
+        ym: Mat,
+        mk: Mat,
+        a: Mat,
+        b: Mat,
+        f: Mat,
+        cm: Mat,
+        ry: Mat,
+    ) -> bool:
+        """Compiled linearisation over the first ``n`` horizon nodes (Wan2018 eq. 42).
+
+        Optional part of :class:`gcs_monitor.filters.mhe.MheModel`: fills ``a, b, f`` (nodes
+        0..n-2) and the masked ``cm, ry`` (nodes 0..n-1) exactly as ``f_jac_x``, ``f_jac_u``,
+        ``f``, ``h_jac_x`` and ``h`` would, in one numba call. Returns False (arrays untouched)
+        when numba is not installed; the caller then calls the methods above node by node.
+        """
+        kern = compiled_kernels()
+        if kern is None:
+            return False
+        kern.linearise_horizon(
+            n, x_lin, u_lin, th, dts, ym, mk, self.params.g_mps2, _JIT_CONSTS, a, b, f, cm, ry
+        )
+        return True
+
+
+# Constants of eq. 16 for the compiled model, passed as an argument (not read as numba globals,
+# which numba's cache would freeze): K, sqrt(K T0), T0, lapse rate, g / (R L) exponent, 3.5.
+_JIT_CONSTS = (
+    _K_CAS,
+    _SQRT_K_T0,
+    c.ISA_T0_K,
+    c.ISA_LAPSE_KPM,
+    _GAS_EXP,
+    _EXP_ISENTROPIC,
+)
+
+
+class CompiledAirData(Protocol):
+    """What ``_airdata_jit`` provides."""
+
+    def linearise_horizon(self, *args: object) -> None: ...
+
+
+_KERNELS: list[object] = []  # [] = not tried yet, [None] = numba unavailable, [module] = loaded
+
+
+def compiled_kernels() -> CompiledAirData | None:
+    """The numba version of this model, imported on first use (None if numba is missing)."""
+    if not _KERNELS:
+        try:
+            from gcs_monitor.models import _airdata_jit
+        except ImportError:  # pragma: no cover - numba missing
+            _KERNELS.append(None)
+        else:
+            _KERNELS.append(_airdata_jit)
+    return _KERNELS[0]  # type: ignore[return-value]

@@ -19,6 +19,7 @@ otherwise).
 from __future__ import annotations
 
 import math
+from typing import Protocol
 
 import numpy as np
 
@@ -226,3 +227,35 @@ def drift_rate_to_fault(drift_rate: Vec, euler_rad: Vec, *, mapping: str = "flat
     if mapping != "flat":
         raise ValueError(f"unknown drift-to-fault mapping {mapping!r}")
     return np.asarray(drift_rate, dtype=np.float64) / own_drift_gain(euler_rad)
+
+
+# ---------------------------------------------------------------------------------------------
+# Compiled versions (numba, models/_kinematics_body_jit.py), imported lazily so that importing
+# this module stays cheap. tests/gcs_monitor/models/test_kinematics_body.py checks they agree with
+# the functions above.
+# ---------------------------------------------------------------------------------------------
+
+
+class CompiledBodyGs(Protocol):
+    """What ``_kinematics_body_jit`` provides (all write into caller-supplied arrays)."""
+
+    def derivative(self, x: Vec, u_m: Vec, f_hat: Vec, g: float, out: Vec) -> None: ...
+    def jac_x(self, x: Vec, u_m: Vec, f_hat: Vec, g: float, F: Mat) -> None: ...
+    def noise_matrix(self, x: Vec, G: Mat) -> None: ...
+    def measurement(self, x: Vec, h: Vec, H: Mat) -> None: ...
+    def prediction(self, *args: object) -> None: ...
+
+
+_KERNELS: list[object] = []  # [] = not tried yet, [None] = numba unavailable, [module] = loaded
+
+
+def compiled_kernels() -> CompiledBodyGs | None:
+    """The numba versions of this model, imported on first use (None if numba is missing)."""
+    if not _KERNELS:
+        try:
+            from gcs_monitor.models import _kinematics_body_jit
+        except ImportError:  # pragma: no cover - numba missing
+            _KERNELS.append(None)
+        else:
+            _KERNELS.append(_kinematics_body_jit)
+    return _KERNELS[0]  # type: ignore[return-value]

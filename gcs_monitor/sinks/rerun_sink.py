@@ -270,6 +270,7 @@ class RerunSink:
         self._buf = _ColumnBuffer()
         self._styled: set[str] = set()
         self._last_plot_us: int | None = None
+        self._last_sets_us: int | None = None
         self._last_flush_us: int | None = None
         self._last_track_us: int | None = None
         self._last_truth_us: int | None = None
@@ -342,6 +343,13 @@ class RerunSink:
         if self._last_plot_us is None or t_us - self._last_plot_us >= self._plot_period_us:
             self._last_plot_us = t_us
             self._sample_plots(frame, estimates, sets, channels)
+            if sets:
+                self._last_sets_us = t_us
+        elif sets and (self._last_sets_us is None
+                       or t_us - self._last_sets_us >= self._plot_period_us):
+            # set statuses come with air-data frames, which need not be the decimated plot frames
+            self._last_sets_us = t_us
+            self._sample_plots(frame, (), sets, ())
         if self._last_track_us is None or t_us - self._last_track_us >= self._track_period_us:
             self._last_track_us = t_us
             self._log_world(frame)

@@ -1,17 +1,45 @@
-"""FrameAssembler: decoded MAVLink messages -> one SI Frame per sample of the primary IMU.
+"""FrameAssembler: decoded MAVLink messages of one vehicle -> one SI Frame per primary-IMU sample.
 
-GPS ground velocity is linearly interpolated to each IMU time between the two GPS samples that
-bracket it (Lu2016 sec. 5: 1 Hz interpolated to 100 Hz). To never look into the future of live
-data, a Frame is held until the GPS sample after its time has arrived; the delay is therefore
-bounded by one GPS period plus transport latency (``Frame.gps_delay_us`` reports it), and at most
-``max_wait_s`` (then the frame is emitted with the last GPS velocity held and its age). All other
-inputs are sampled at the IMU time (latest value and its age). Attitude that arrives after the
-IMU sample of the same timestamp is patched into the held frame, so IMU and attitude are aligned.
+Timing conventions (all vehicle time, integer µs, from ``time_usec``/``time_boot_ms``):
 
-Vehicle time comes from ``time_usec``/``time_boot_ms`` as int µs. Time going backwards by more
-than ``reboot_jump_s`` is an autopilot reboot: state is reset and ``reboot_pending`` is set for the
-monitor to reset the estimators. Non-finite or physically impossible values are counted in the
-link statistics and dropped, never passed on (and so never become fault alarms).
+* **Primary IMU.** HIGHRES_IMU ``id`` = instance. The primary is ``config.primary_imu`` if it is
+  present, else the lowest instance present; if the primary stops (no sample for
+  ``stale_after_s`` while another instance still sends) the assembler switches to that one and
+  counts the switch. Without HIGHRES_IMU (real ArduPilot logs) SCALED_IMU/SCALED_IMU2/
+  SCALED_IMU3 are instances 0/1/2, and RAW_IMU is instance 0 when the HEARTBEAT autopilot is
+  ArduPilot (ArduPilot fills RAW_IMU with the same mG / mrad/s values); both are FRD already.
+* **GPS velocity delay D** (``config.gps_delay_s``, default one GPS period at 10 Hz). The GPS
+  velocity is linearly interpolated between the two GPS samples that bracket the query instant
+  (Lu2016 sec. 5: 1 Hz interpolated to 100 Hz). Live data has no future sample, so the query
+  instant lags the newest data by D: with D >= one GPS period a bracketing pair has normally
+  arrived. Past the newest GPS sample the velocity is held (never extrapolated) with its age.
+* **Mode "latest" (``align_delay_us`` = 0, default).** A frame is emitted as soon as its primary
+  IMU sample arrives: IMU, attitude and air data are the latest values (each with its age); the
+  GPS velocity is interpolated at ``t_us - D`` and ``Frame.gps_delay_us = D``. An estimator
+  using it must delay its own IMU/attitude by D (a ring buffer) to compare like with like.
+* **Mode "aligned" (``align_delay_us = R``, preferred with R = D).** Frames are held R and
+  emitted once the newest vehicle time reaches ``t_us + R``. Each frame carries the IMU,
+  attitude and air data *at its own t_us* (attitude, AoA and other time-stamped samples that
+  arrive just after the IMU sample of the same instant are filled in while the frame is held),
+  and the GPS velocity interpolated at ``t_us - max(0, D - R)``; with R = D that is exactly
+  ``t_us`` (``gps_delay_us = 0``). ``Frame.output_delay_us = R`` says how late the frame is.
+  Untimed messages (AIRSPEED, VFR_HUD) are stamped with their arrival vehicle time.
+  The estimators in this repository read ``gps_vel_ned_mps`` as if taken at ``t_us``; they
+  need this mode (``FrameAssembler.aligned(config, stats)``).
+* ``Frame.gps_new`` is True on the first frame whose interpolation base (the newest GPS sample
+  at or before the query instant) is a new sample; ``gps_age_s`` is the query instant minus
+  that sample's time; ``gps_fix`` is the latest GPS_RAW_INT fix (velocity needs a 3D fix).
+
+Missing or stale inputs are explicit: ``None``/NaN plus an age (inf when never seen); an input
+older than ``stale_after_s`` is reported invalid. Non-finite or physically impossible values are
+counted per ``MESSAGE.field`` in the vehicle's :class:`LinkStats` and dropped, never passed on.
+A primary-IMU clock that goes back and stays on the new time line for ``REBOOT_CONFIRM``
+samples is an autopilot reboot: held frames are flushed, all state is reset, the confirming
+samples are replayed, ``stats.reboots`` counts it, ``reboot_pending`` is set for the monitor and
+the first new frame has ``reset=True``. A backward sample followed by a forward one is a
+reordered packet (dropped, ``time_backwards``); two time lines that keep interleaving by more
+than ``REBOOT_JUMP_US`` are two senders with one sysid (``clock_conflicts``,
+``duplicate_sysid``), which never reset the assembler.
 """
 
 from __future__ import annotations
@@ -22,324 +50,602 @@ from typing import Any
 
 import numpy as np
 
-from gcs_monitor.core.units import CM2M, DEG2RAD, DEGE7_2RAD, HPA2PA, MM2M
 from gcs_monitor.link.mav import mavlink
 from gcs_monitor.link.stats import LinkStats
 from gcs_monitor.telemetry import contract as ct
 from gcs_monitor.telemetry.frame import Frame, ImuSample
+from gcs_monitor.telemetry.samples import GpsSample, gps_sample, interpolate_gps
 
-REBOOT_JUMP_US = 1_000_000
-N_AIR = 3
 N_IMU = 3
+N_AIR = 3
+NEVER_US = -(1 << 62)  # "no sample yet" time stamp: ages come out astronomically large
+REBOOT_JUMP_US = 1_000_000  # attitude/GPS: a step back larger than this is a clock restart
+REBOOT_CONFIRM = 5  # primary-IMU samples in a row on a new, earlier time line = reboot
+CLOCK_CONFLICTS_DUPLICATE = 3  # old and new time lines interleaving this often: 2 senders
+REBOOT_CONFIRM_DUPLICATE = 100  # ... then only this long a run (1 s at 100 Hz) is a new clock
+GPS_RING = 16  # GPS samples kept for interpolation (>= D / GPS period + 2)
+DEFAULT_GPS_DELAY_S = 0.1  # one GPS period at 10 Hz (docs/telemetry.md default GPS rate)
+DEFAULT_STALE_S = 0.5
+MAX_PENDING = 10_000  # held frames in aligned mode (100 s at 100 Hz): memory bound
+GPS_FIX_3D = 3
+SURF_ARRAY_ID = 0
+N_SURF = 3
+US_PER_S = 1_000_000
+S_PER_US = 1e-6
+
+M = mavlink
+_HIGHRES = M.MAVLINK_MSG_ID_HIGHRES_IMU
+_RAW_IMU = M.MAVLINK_MSG_ID_RAW_IMU
+_SCALED_INSTANCE = {M.MAVLINK_MSG_ID_SCALED_IMU: 0, M.MAVLINK_MSG_ID_SCALED_IMU2: 1,
+                    M.MAVLINK_MSG_ID_SCALED_IMU3: 2}
+
+
+def _name(raw: Any) -> str:
+    if isinstance(raw, bytes):
+        raw = raw.decode("ascii", errors="replace")
+    return str(raw).rstrip("\x00")
 
 
 class FrameAssembler:
-    """Assemble Frames for one vehicle.
+    """Assemble Frames for one vehicle (see the module docstring for the timing conventions).
 
     Parameters
     ----------
-    stats : the vehicle's link statistics (bad values, reorders, reboots are counted there)
-    max_wait_s : longest a frame waits for the next GPS sample
-    stale_after_s : inputs older than this are reported invalid (NaN / None)
+    config : ``TelemetryConfig`` (``gps_delay_s``, ``stale_after_s``, ``primary_imu``) or None for
+        defaults. For backward compatibility a :class:`LinkStats` in this position is taken as
+        ``stats``.
+    stats : the vehicle's link statistics (bad values, reboots, reorders are counted there)
+    gps_delay_us, stale_after_s, primary_imu : override the config values
+    align_delay_us : R, how long frames are held so all inputs are aligned (0: mode "latest")
     """
 
-    def __init__(self, stats: LinkStats | None = None, *, max_wait_s: float = 1.5,
-                 stale_after_s: float = 0.5, max_pending: int = 2000) -> None:
+    def __init__(self, config: Any = None, *, stats: LinkStats | None = None,
+                 gps_delay_us: int | None = None, align_delay_us: int | None = None,
+                 stale_after_s: float | None = None, primary_imu: int | None = None,
+                 max_pending: int = MAX_PENDING) -> None:
+        if isinstance(config, LinkStats):
+            stats, config = config, None
         self.stats = stats if stats is not None else LinkStats(0)
-        self.max_wait_us = int(max_wait_s * 1e6)
-        self.stale_us = int(stale_after_s * 1e6)
+        d_s = getattr(config, "gps_delay_s", DEFAULT_GPS_DELAY_S)
+        self.gps_delay_us = int(gps_delay_us if gps_delay_us is not None else round(d_s * 1e6))
+        stale_s = stale_after_s if stale_after_s is not None else getattr(
+            config, "stale_after_s", DEFAULT_STALE_S)
+        self.stale_us = int(round(stale_s * 1e6))
+        self.stale_s = stale_s
+        self.preferred_imu = int(primary_imu if primary_imu is not None else getattr(
+            config, "primary_imu", 0))
+        self.align_delay_us = int(align_delay_us or 0)
+        if self.gps_delay_us < 0 or self.align_delay_us < 0:
+            raise ValueError("gps_delay_us and align_delay_us must be >= 0")
+        self.query_lag_us = max(0, self.gps_delay_us - self.align_delay_us)
         self.max_pending = max_pending
         self._dispatch = {
-            mavlink.MAVLINK_MSG_ID_HIGHRES_IMU: self._highres_imu,
-            mavlink.MAVLINK_MSG_ID_SCALED_IMU: self._scaled_imu,
-            mavlink.MAVLINK_MSG_ID_SCALED_IMU2: self._scaled_imu,
-            mavlink.MAVLINK_MSG_ID_SCALED_IMU3: self._scaled_imu,
-            mavlink.MAVLINK_MSG_ID_ATTITUDE: self._attitude,
-            mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: self._global_position,
-            mavlink.MAVLINK_MSG_ID_AIRSPEED: self._airspeed,
-            mavlink.MAVLINK_MSG_ID_AOA_SSA: self._aoa_ssa,
-            mavlink.MAVLINK_MSG_ID_NAMED_VALUE_FLOAT: self._named_value,
-            mavlink.MAVLINK_MSG_ID_VFR_HUD: self._vfr_hud,
-            mavlink.MAVLINK_MSG_ID_SCALED_PRESSURE: self._scaled_pressure,
-            mavlink.MAVLINK_MSG_ID_DEBUG_FLOAT_ARRAY: self._debug_array,
+            _HIGHRES: self._highres_imu,
+            _RAW_IMU: self._raw_imu,
+            M.MAVLINK_MSG_ID_SCALED_IMU: self._scaled_imu,
+            M.MAVLINK_MSG_ID_SCALED_IMU2: self._scaled_imu,
+            M.MAVLINK_MSG_ID_SCALED_IMU3: self._scaled_imu,
+            M.MAVLINK_MSG_ID_ATTITUDE: self._attitude,
+            M.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: self._global_position,
+            M.MAVLINK_MSG_ID_GPS_RAW_INT: self._gps_raw,
+            M.MAVLINK_MSG_ID_AIRSPEED: self._airspeed,
+            M.MAVLINK_MSG_ID_AOA_SSA: self._aoa_ssa,
+            M.MAVLINK_MSG_ID_NAMED_VALUE_FLOAT: self._named_value,
+            M.MAVLINK_MSG_ID_VFR_HUD: self._vfr_hud,
+            M.MAVLINK_MSG_ID_SCALED_PRESSURE: self._scaled_pressure,
+            M.MAVLINK_MSG_ID_DEBUG_FLOAT_ARRAY: self._debug_array,
+            M.MAVLINK_MSG_ID_HEARTBEAT: self._heartbeat,
         }
-        self._scaled_ids = {mavlink.MAVLINK_MSG_ID_SCALED_IMU: 0,
-                            mavlink.MAVLINK_MSG_ID_SCALED_IMU2: 1,
-                            mavlink.MAVLINK_MSG_ID_SCALED_IMU3: 2}
-        self.seen: collections.Counter[str] = collections.Counter()
+        self.seen: set[str] = set()  # contract messages accepted at least once (availability)
+        self.ignored = 0
         self.reboot_pending = False
         self.frames_out = 0
+        self.autopilot = -1
+        # availability bookkeeping survives resets
+        self._ever_imu: set[int] = set()
+        self._ever_aoa: set[int] = set()
+        self._ever_cas: set[int] = set()
+        self._imu_source = "none"
+        self._ever_surf = False
         self._reset()
 
+    @classmethod
+    def aligned(cls, config: Any = None, stats: LinkStats | None = None,
+                **kw: Any) -> FrameAssembler:
+        """Mode "aligned" with R = D: every input of a frame, GPS included, is at ``t_us``."""
+        d_s = getattr(config, "gps_delay_s", DEFAULT_GPS_DELAY_S)
+        d_us = int(kw.pop("gps_delay_us", round(d_s * 1e6)))
+        return cls(config, stats=stats, gps_delay_us=d_us, align_delay_us=d_us, **kw)
+
+    # -- state -------------------------------------------------------------------------------
     def _reset(self) -> None:
         self._imu: list[ImuSample | None] = [None] * N_IMU
+        self._imu_t = [NEVER_US] * N_IMU
+        self._imu_msg = [0] * N_IMU  # message id feeding each instance (one source each)
         self._highres = False
         self._primary: int | None = None
-        self._last_t_us = -1
-        self._now_us = 0
+        self._reboot_buf: collections.deque[tuple[int, int, float, float, float, float, float,
+                                                  float]] = collections.deque(
+                                                      maxlen=REBOOT_CONFIRM)
+        self._back_run = 0
+        self._last_frame_t = NEVER_US
+        self._now_us = NEVER_US
         self._att: np.ndarray | None = None
-        self._att_t = -1
-        self._gps_prev: tuple[int, np.ndarray] | None = None
-        self._gps_last: tuple[int, np.ndarray] | None = None
-        self._lat = self._lon = self._alt = math.nan
-        self._aoa = np.full(N_AIR, np.nan)
-        self._aoa_t = np.full(N_AIR, -(10**15), dtype=np.int64)
-        self._cas = np.full(N_AIR, np.nan)
-        self._cas_t = np.full(N_AIR, -(10**15), dtype=np.int64)
+        self._att_t = NEVER_US
+        self._gps: collections.deque[GpsSample] = collections.deque(maxlen=GPS_RING)
+        self._gps_fix = -1
+        self._gps_base_t = NEVER_US
+        # AoA vanes 0..2 then CAS 0..2 in one list each (one array per frame, four views)
+        self._air_v = [math.nan] * (2 * N_AIR)
+        self._air_t = [NEVER_US] * (2 * N_AIR)
         self._air_new = False
         self._ssa = math.nan
+        self._ssa_t = NEVER_US
         self._baro_alt = self._climb = math.nan
-        self._air_t = -(10**15)
-        self._p_static = self._oat = math.nan
+        self._baro_t = NEVER_US
+        self._p_static = math.nan
+        self._p_static_t = NEVER_US
+        self._oat = math.nan
         self._surf: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
-        self._surf_t = -(10**15)
+        self._surf_t = NEVER_US
         self._pending: collections.deque[Frame] = collections.deque()
-        self._gps_seen_since_frame = False
+        self._next_reset_flag = False
 
     # -- input -------------------------------------------------------------------------------
     def push(self, msg: Any) -> list[Frame]:
-        """Consume one decoded message; return the Frames that became complete."""
+        """Consume one decoded message of this vehicle; return the Frames completed by it."""
         handler = self._dispatch.get(msg._header.msgId)
         if handler is None:
+            self.ignored += 1
             return []
-        self.seen[msg._type] += 1
         return handler(msg)
 
+    def push_many(self, msgs: Any) -> list[Frame]:
+        """``push`` for a sequence of messages."""
+        out: list[Frame] = []
+        for m in msgs:
+            f = self.push(m)
+            if f:
+                out += f
+        return out
+
     def flush(self) -> list[Frame]:
-        """End of input: emit every held frame with what is known."""
+        """End of input: emit every held frame with what is known (aligned mode)."""
         out = []
         while self._pending:
             out.append(self._finish(self._pending.popleft()))
         return out
 
-    def _bad(self, name: str) -> list[Frame]:
-        self.stats.bad_value(name)
+    def _bad(self, msg: str, names: tuple[str, ...], vals: tuple[float, ...],
+             lo: tuple[float, ...], hi: tuple[float, ...]) -> list[Frame]:
+        """Count each offending field of a rejected message (slow path only)."""
+        for n, v, a, b in zip(names, vals, lo, hi, strict=True):
+            if not a <= v <= b:  # False for NaN too
+                self.stats.bad_value(f"{msg}.{n}")
+        return []
+
+    # IMU ----------------------------------------------------------------------------------------
+    def _heartbeat(self, m: Any) -> list[Frame]:
+        if m._header.srcComponent == 1 or self.autopilot < 0:
+            self.autopilot = int(m.autopilot)
         return []
 
     def _highres_imu(self, m: Any) -> list[Frame]:
-        self._highres = True
-        return self._imu_sample(int(m.time_usec), int(m.id), m.xacc, m.yacc, m.zacc,
-                                m.xgyro, m.ygyro, m.zgyro, 1.0, 1.0)
+        if not self._highres:
+            self._highres = True  # HIGHRES_IMU present: the fallbacks are ignored from now on
+            self._imu_msg = [_HIGHRES] * N_IMU
+            self._imu_source = "HIGHRES_IMU"
+        inst = m.id
+        ax, ay, az, p, q, r = m.xacc, m.yacc, m.zacc, m.xgyro, m.ygyro, m.zgyro
+        A, W = ct.MAX_ACC_MPS2, ct.MAX_RATE_RADPS
+        if not (-A <= ax <= A and -A <= ay <= A and -A <= az <= A
+                and -W <= p <= W and -W <= q <= W and -W <= r <= W):
+            return self._bad("HIGHRES_IMU", ("xacc", "yacc", "zacc", "xgyro", "ygyro", "zgyro"),
+                             (ax, ay, az, p, q, r), (-A,) * 3 + (-W,) * 3, (A,) * 3 + (W,) * 3)
+        if not 0 <= inst < N_IMU:
+            self.stats.bad_value("HIGHRES_IMU.id")
+            return []
+        return self._imu_sample(m.time_usec, inst, ax, ay, az, p, q, r)
+
+    def _fallback_imu(self, m: Any, name: str, inst: int, t_us: int) -> list[Frame]:
+        msg_id = m._header.msgId
+        owner = self._imu_msg[inst]
+        if owner == 0:
+            self._imu_msg[inst] = owner = msg_id
+            if self._imu_source == "none":
+                self._imu_source = name
+        if owner != msg_id:  # RAW_IMU and SCALED_IMU both describe IMU 0: keep the first
+            return []
+        k, g = ct.MG_TO_MPS2, ct.MRAD_TO_RAD
+        ax, ay, az = m.xacc * k, m.yacc * k, m.zacc * k
+        p, q, r = m.xgyro * g, m.ygyro * g, m.zgyro * g
+        A, W = ct.MAX_ACC_MPS2, ct.MAX_RATE_RADPS
+        if not (-A <= ax <= A and -A <= ay <= A and -A <= az <= A
+                and -W <= p <= W and -W <= q <= W and -W <= r <= W):
+            return self._bad(name, ("xacc", "yacc", "zacc", "xgyro", "ygyro", "zgyro"),
+                             (ax, ay, az, p, q, r), (-A,) * 3 + (-W,) * 3, (A,) * 3 + (W,) * 3)
+        return self._imu_sample(t_us, inst, ax, ay, az, p, q, r)
 
     def _scaled_imu(self, m: Any) -> list[Frame]:
         if self._highres:
             return []
-        inst = self._scaled_ids[m._header.msgId]
-        return self._imu_sample(int(m.time_boot_ms) * 1000, inst, m.xacc, m.yacc, m.zacc,
-                                m.xgyro, m.ygyro, m.zgyro, ct.MG_TO_MPS2, ct.MRAD_TO_RAD)
+        inst = _SCALED_INSTANCE[m._header.msgId]
+        return self._fallback_imu(m, m._type, inst, m.time_boot_ms * ct.MS_TO_US)
+
+    def _raw_imu(self, m: Any) -> list[Frame]:
+        # RAW_IMU is raw sensor counts in general; ArduPilot fills it with mG and mrad/s.
+        if self._highres or self.autopilot != M.MAV_AUTOPILOT_ARDUPILOTMEGA:
+            return []
+        return self._fallback_imu(m, "RAW_IMU", 0, int(m.time_usec))
 
     def _imu_sample(self, t_us: int, inst: int, ax: float, ay: float, az: float, p: float,
-                    q: float, r: float, ka: float, kg: float) -> list[Frame]:
-        if not 0 <= inst < N_IMU:
-            return self._bad("imu.instance")
-        vals = (ax, ay, az, p, q, r)
-        if not all(math.isfinite(v) for v in vals):
-            return self._bad("imu.nan")
-        ax, ay, az = ax * ka, ay * ka, az * ka
-        p, q, r = p * kg, q * kg, r * kg
-        if max(abs(ax), abs(ay), abs(az)) > ct.MAX_ACC_MPS2 or max(abs(p), abs(q), abs(r)) > \
-                ct.MAX_RATE_RADPS:
-            return self._bad("imu.range")
-        if self._primary is None or inst < self._primary:
-            self._primary = inst
-        if inst != self._primary:
-            self._imu[inst] = ImuSample(t_us, inst, np.array((ax, ay, az)), np.array((p, q, r)))
-            return []
-        last = self._last_t_us
-        if last >= 0 and t_us <= last:
-            if last - t_us > REBOOT_JUMP_US:
-                out = self.flush()
-                self.stats.reboots += 1
-                self._reset()
-                self.reboot_pending = True
-                return out + self._imu_sample(t_us, inst, ax / ka, ay / ka, az / ka, p / kg,
-                                              q / kg, r / kg, ka, kg)
+                    q: float, r: float) -> list[Frame]:
+        st = self.stats
+        last = self._imu_t[inst]
+        primary = self._primary
+        if t_us <= last:
             if t_us == last:
-                self.stats.duplicates_dropped += 1
-            else:
-                self.stats.time_reorders += 1
+                st.duplicates_dropped += 1
+                return []
+            st.time_backwards += 1
+            if inst != primary:
+                return []
+            # primary clock went back: a reboot once REBOOT_CONFIRM samples in a row continue
+            # the new time line; a forward sample in between means a reordered packet (or,
+            # for big jumps, a second sender with the same sysid)
+            buf = self._reboot_buf
+            if buf and t_us <= buf[-1][0]:
+                buf.clear()
+                self._back_run = 0
+            buf.append((t_us, inst, ax, ay, az, p, q, r))  # bounded deque: replayed on reboot
+            self._back_run += 1
+            # with two senders on this sysid, only a long run on the earlier clock (the other
+            # sender has stopped) is taken as the new time line
+            need = REBOOT_CONFIRM_DUPLICATE if st.duplicate_sysid else REBOOT_CONFIRM
+            if self._back_run >= need:
+                return self._reboot()
             return []
-        self._last_t_us = t_us
-        self._now_us = max(self._now_us, t_us)
-        sample = ImuSample(t_us, inst, np.array((ax, ay, az)), np.array((p, q, r)))
+        if self._back_run and inst == primary:
+            if self._imu_t[inst] - self._reboot_buf[0][0] > REBOOT_JUMP_US:
+                st.clock_conflicts += 1  # two clocks interleave: two senders, one sysid
+                if st.clock_conflicts >= CLOCK_CONFLICTS_DUPLICATE:
+                    st.duplicate_sysid = True
+            self._reboot_buf.clear()
+            self._back_run = 0
+        v6 = np.array((ax, ay, az, p, q, r))  # one allocation, two views
+        sample = ImuSample(t_us, inst, v6[:3], v6[3:])
         self._imu[inst] = sample
+        self._imu_t[inst] = t_us
+        self._ever_imu.add(inst)
+        if inst != primary:
+            if (primary is None or inst == self.preferred_imu
+                    or (inst < primary and primary != self.preferred_imu)
+                    or t_us - self._imu_t[primary] > self.stale_us):
+                if primary is not None:
+                    st.primary_imu_switches += 1
+                self._primary = primary = inst
+            else:
+                if self._pending:  # fill the held frames of the same instant
+                    for f in reversed(self._pending):
+                        if f.t_us < t_us:
+                            break
+                        f.imu[inst] = sample
+                return []
+        if t_us <= self._last_frame_t:
+            return []
+        if t_us > self._now_us:
+            self._now_us = t_us
+        if st.last_vehicle_t_us < t_us:
+            st.last_vehicle_t_us = t_us
+        self._last_frame_t = t_us
         frame = self._new_frame(t_us)
-        self._pending.append(frame)
-        return self._release()
+        if self.align_delay_us == 0:
+            return [self._finish(frame)]
+        pend = self._pending
+        pend.append(frame)
+        out: list[Frame] = []
+        horizon = t_us - self.align_delay_us
+        while pend and (pend[0].t_us <= horizon or len(pend) > self.max_pending):
+            out.append(self._finish(pend.popleft()))
+        return out
 
+    def _reboot(self) -> list[Frame]:
+        buf = list(self._reboot_buf)
+        out = self.flush()
+        self.stats.reboots += 1
+        self.stats.time_backwards -= len(buf)  # these samples are replayed, not dropped
+        highres, src = self._highres, self._imu_msg
+        self._reset()
+        self._highres, self._imu_msg = highres, src
+        self.reboot_pending = True
+        self._next_reset_flag = True
+        for sample in buf:
+            out += self._imu_sample(*sample)
+        return out
+
+    # attitude and GPS ---------------------------------------------------------------------------
     def _attitude(self, m: Any) -> list[Frame]:
-        e = (m.roll, m.pitch, m.yaw)
-        if not all(math.isfinite(v) and abs(v) <= 2 * math.pi + 0.1 for v in e):
-            return self._bad("attitude")
-        t_us = int(m.time_boot_ms) * 1000
-        self._att = np.array(e)
+        ph, th, ps = m.roll, m.pitch, m.yaw
+        E = ct.MAX_ANGLE_RAD
+        if not (-E <= ph <= E and -E <= th <= E and -E <= ps <= E):
+            return self._bad("ATTITUDE", ("roll", "pitch", "yaw"), (ph, th, ps), (-E,) * 3,
+                             (E,) * 3)
+        t_us = m.time_boot_ms * ct.MS_TO_US
+        if t_us < self._att_t:
+            if self._att_t - t_us <= REBOOT_JUMP_US:
+                self.stats.time_backwards += 1
+                return []
+            # a larger jump: the attitude clock restarted; the IMU decides about reboots
+        e = np.array((ph, th, ps))
+        if self._att is None:
+            self.seen.add("ATTITUDE")
+        self._att = e
         self._att_t = t_us
-        # patch held frames of the same (ms-rounded) time that were built before it arrived
-        for f in reversed(self._pending):
-            if abs(f.t_us - t_us) < 1000:
-                f.euler_rad = self._att
-                f.att_age_s = 0.0
-            elif f.t_us < t_us:
-                break
+        if self._pending:
+            for f in reversed(self._pending):
+                if f.t_us < t_us:
+                    break
+                age = (f.t_us - t_us) * S_PER_US
+                if age < f.att_age_s:
+                    f.euler_rad = e
+                    f.att_age_s = age
+        return []
+
+    def _gps_raw(self, m: Any) -> list[Frame]:
+        self._gps_fix = int(m.fix_type)
         return []
 
     def _global_position(self, m: Any) -> list[Frame]:
-        t_us = int(m.time_boot_ms) * 1000
-        v = np.array((m.vx * CM2M, m.vy * CM2M, m.vz * CM2M))
-        lat, lon, alt = m.lat * DEGE7_2RAD, m.lon * DEGE7_2RAD, m.alt * MM2M
-        if abs(lat) > math.pi / 2 or abs(lon) > math.pi or not ct.MIN_ALT_M < alt < ct.MAX_ALT_M:
-            self.stats.bad_value("gps.position")
-        else:
-            self._lat, self._lon, self._alt = lat, lon, alt
-        if self._gps_last is not None and t_us <= self._gps_last[0]:
-            if self._gps_last[0] - t_us > REBOOT_JUMP_US:
-                self._gps_prev = self._gps_last = None
-            else:
-                return self._bad("gps.time_order")
-        if float(np.max(np.abs(v))) > ct.MAX_SPEED_MPS:
-            return self._bad("gps.velocity")
-        self._gps_prev = self._gps_last
-        self._gps_last = (t_us, v)
-        self._gps_seen_since_frame = True
-        return self._release()
+        t_us = m.time_boot_ms * ct.MS_TO_US
+        s = ct.CMPS_TO_MPS
+        vn, ve, vd = m.vx * s, m.vy * s, m.vz * s
+        V = ct.MAX_SPEED_MPS
+        if not (-V <= vn <= V and -V <= ve <= V and -V <= vd <= V):
+            return self._bad("GLOBAL_POSITION_INT", ("vx", "vy", "vz"), (vn, ve, vd),
+                             (-V,) * 3, (V,) * 3)
+        lat, lon, alt = m.lat * ct.DEGE7_TO_RAD, m.lon * ct.DEGE7_TO_RAD, m.alt * ct.MM_TO_M
+        half_pi = 0.5 * math.pi
+        if not (-half_pi <= lat <= half_pi and -math.pi <= lon <= math.pi
+                and ct.MIN_ALT_M <= alt <= ct.MAX_ALT_M):
+            self._bad("GLOBAL_POSITION_INT", ("lat", "lon", "alt"), (lat, lon, alt),
+                      (-half_pi, -math.pi, ct.MIN_ALT_M), (half_pi, math.pi, ct.MAX_ALT_M))
+            # Hold the last valid position: it changes slowly, and NaN would poison the
+            # estimators' earth-rate and gravity terms (and so reset them) for one bad field.
+            prev = next((g for g in reversed(self._gps) if g.lat_rad == g.lat_rad), None)
+            lat, lon, alt = ((prev.lat_rad, prev.lon_rad, prev.alt_msl_m) if prev is not None
+                             else (math.nan, math.nan, math.nan))
+        ring = self._gps
+        if ring:
+            last = ring[-1].t_us
+            if t_us <= last:
+                if last - t_us > REBOOT_JUMP_US:
+                    ring.clear()  # GPS clock restarted; the IMU decides about reboots
+                elif t_us == last:
+                    self.stats.duplicates_dropped += 1
+                    return []
+                else:
+                    self.stats.time_backwards += 1
+                    return []
+        if not ring:
+            self.seen.add("GLOBAL_POSITION_INT")
+        ring.append(gps_sample(t_us, vn, ve, vd, lat, lon, alt))
+        return []
+
+    # air data and surfaces ----------------------------------------------------------------------
+    def _arrival_us(self) -> int:
+        return self._now_us
 
     def _airspeed(self, m: Any) -> list[Frame]:
-        i = int(m.id)
+        i = m.id
+        v = m.airspeed
+        V = ct.MAX_SPEED_MPS
+        if not 0.0 <= v <= V:
+            return self._bad("AIRSPEED", ("airspeed",), (v,), (0.0,), (V,))
         if not 0 <= i < N_AIR:
-            return self._bad("airspeed.instance")
-        v = float(m.airspeed)
-        if not math.isfinite(v) or not 0.0 <= v < ct.MAX_SPEED_MPS:
-            return self._bad("airspeed.range")
-        self._cas[i] = v
-        self._cas_t[i] = self._now_us
+            self.stats.bad_value("AIRSPEED.id")
+            return []
+        self._air_v[N_AIR + i] = v
+        self._air_t[N_AIR + i] = self._now_us
+        self._ever_cas.add(i)
         self._air_new = True
-        t = float(m.temperature)
-        if math.isfinite(t) and t != 0:
-            self._oat = t * ct.CDEGC_TO_K + ct.ZERO_C_K
+        oat = m.temperature * ct.CDEGC_TO_K + ct.ZERO_C_K
+        if ct.MIN_OAT_K <= oat <= ct.MAX_OAT_K:
+            self._oat = oat
         return []
 
-    def _set_aoa(self, i: int, deg: float) -> list[Frame]:
-        a = deg * DEG2RAD
-        if not math.isfinite(a) or abs(a) > ct.MAX_AOA_RAD:
-            return self._bad("aoa.range")
-        self._aoa[i] = a
-        self._aoa_t[i] = self._now_us
+    def _set_aoa(self, i: int, t_us: int, aoa: float) -> None:
+        self._air_v[i] = aoa
+        self._air_t[i] = t_us
+        self._ever_aoa.add(i)
         self._air_new = True
-        return []
+        if self._pending:
+            for f in reversed(self._pending):
+                if f.t_us < t_us:
+                    break
+                age = (f.t_us - t_us) * S_PER_US
+                if age < f.aoa_age_s[i]:
+                    f.aoa_rad[i] = aoa
+                    f.aoa_age_s[i] = age
+                    f.air_new = True
 
     def _aoa_ssa(self, m: Any) -> list[Frame]:
-        s = m.SSA * DEG2RAD
-        if math.isfinite(s) and abs(s) <= ct.MAX_AOA_RAD:
-            self._ssa = s
-        return self._set_aoa(0, m.AOA)
+        k = ct.DEG_TO_RAD
+        a, b = m.AOA * k, m.SSA * k
+        L = ct.MAX_AOA_RAD
+        t_us = int(m.time_usec)
+        if -L <= b <= L:
+            if self._ssa_t == NEVER_US:
+                self.seen.add("AOA_SSA")
+            self._ssa, self._ssa_t = b, t_us
+        else:
+            self.stats.bad_value("AOA_SSA.SSA")
+        if not -L <= a <= L:
+            return self._bad("AOA_SSA", ("AOA",), (a,), (-L,), (L,))
+        self._set_aoa(0, t_us, a)
+        return []
 
     def _named_value(self, m: Any) -> list[Frame]:
-        name = m.name if isinstance(m.name, str) else m.name.decode(errors="replace")
-        name = name.rstrip("\x00")
-        if name in ("AOA1", "AOA2"):
-            return self._set_aoa(int(name[3]), m.value)
+        name = _name(m.name)
+        if name not in ("AOA1", "AOA2"):
+            return []
+        a = m.value * ct.DEG_TO_RAD
+        L = ct.MAX_AOA_RAD
+        if not -L <= a <= L:
+            return self._bad("NAMED_VALUE_FLOAT", (name,), (a,), (-L,), (L,))
+        self._set_aoa(1 if name == "AOA1" else 2, m.time_boot_ms * ct.MS_TO_US, a)
         return []
 
     def _vfr_hud(self, m: Any) -> list[Frame]:
-        alt, climb = float(m.alt), float(m.climb)
-        if not (math.isfinite(alt) and math.isfinite(climb)) or not \
-                ct.MIN_ALT_M < alt < ct.MAX_ALT_M or abs(climb) > ct.MAX_SPEED_MPS:
-            return self._bad("vfr_hud")
+        alt, climb = m.alt, m.climb
+        V = ct.MAX_SPEED_MPS
+        if not (ct.MIN_ALT_M <= alt <= ct.MAX_ALT_M and -V <= climb <= V):
+            return self._bad("VFR_HUD", ("alt", "climb"), (alt, climb), (ct.MIN_ALT_M, -V),
+                             (ct.MAX_ALT_M, V))
+        if self._baro_t == NEVER_US:
+            self.seen.add("VFR_HUD")
         self._baro_alt, self._climb = alt, climb
-        self._air_t = self._now_us
+        self._baro_t = self._now_us
         return []
 
     def _scaled_pressure(self, m: Any) -> list[Frame]:
-        p = float(m.press_abs) * HPA2PA
-        if not math.isfinite(p) or not 1_000.0 < p < 120_000.0:
-            return self._bad("pressure")
+        p = m.press_abs * ct.HPA_TO_PA
+        if not ct.MIN_PRESSURE_PA <= p <= ct.MAX_PRESSURE_PA:
+            return self._bad("SCALED_PRESSURE", ("press_abs",), (p,), (ct.MIN_PRESSURE_PA,),
+                             (ct.MAX_PRESSURE_PA,))
+        if self._p_static_t == NEVER_US:
+            self.seen.add("SCALED_PRESSURE")
         self._p_static = p
-        self._oat = float(m.temperature) * ct.CDEGC_TO_K + ct.ZERO_C_K
+        self._p_static_t = m.time_boot_ms * ct.MS_TO_US
+        oat = m.temperature * ct.CDEGC_TO_K + ct.ZERO_C_K
+        if ct.MIN_OAT_K <= oat <= ct.MAX_OAT_K:
+            self._oat = oat
+        else:
+            self.stats.bad_value("SCALED_PRESSURE.temperature")
         return []
 
     def _debug_array(self, m: Any) -> list[Frame]:
-        name = m.name if isinstance(m.name, str) else m.name.decode(errors="replace")
-        if name.rstrip("\x00") != "SURF":
+        if m.array_id != SURF_ARRAY_ID or _name(m.name) != "SURF":
             return []
-        d = np.asarray(m.data[:9], dtype=float)
-        if not np.all(np.isfinite(d)):
-            return self._bad("surf")
-        self._surf = (d[0::3].copy(), d[1::3].copy(), d[2::3].copy())
-        self._surf_t = self._now_us
+        raw = m.data
+        d = np.array(raw[:3 * N_SURF], dtype=float)
+        cmd, pos, rod = d[0::3], d[1::3], d[2::3]
+        S, R = ct.MAX_SURF_RAD, ct.MAX_ROD_M
+        ok_s = np.abs(np.concatenate((cmd, pos))) <= S  # False for NaN
+        ok_r = np.abs(rod) <= R
+        if not (ok_s.all() and ok_r.all()):
+            names = tuple(f"data[{j}]" for j in range(3 * N_SURF))
+            lims = (S, S, R) * N_SURF
+            return self._bad("DEBUG_FLOAT_ARRAY.SURF", names, tuple(d.tolist()),
+                             tuple(-x for x in lims), lims)
+        self._surf = (cmd, pos, rod)
+        self._ever_surf = True
+        self._surf_t = int(m.time_usec)
         return []
 
     # -- output ------------------------------------------------------------------------------
     def _new_frame(self, t_us: int) -> Frame:
-        stale = self.stale_us
-        aoa_age = (t_us - self._aoa_t) * 1e-6
-        cas_age = (t_us - self._cas_t) * 1e-6
-        aoa = np.where(aoa_age * 1e6 <= stale, self._aoa, np.nan)
-        cas = np.where(cas_age * 1e6 <= stale, self._cas, np.nan)
-        att_ok = self._att is not None and t_us - self._att_t <= stale
-        surf = self._surf if t_us - self._surf_t <= stale else None
+        """Snapshot of the latest inputs at primary-IMU time ``t_us`` (GPS added in _finish).
+
+        Python floats on the hot path: three-element numpy arithmetic costs more than it saves.
+        """
+        stale = self.stale_s
+        nan = math.nan
+        ages = [(t_us - x) * S_PER_US for x in self._air_t]
+        vals = [v if a <= stale else nan for v, a in zip(self._air_v, ages, strict=True)]
+        air = np.array(vals + ages)  # [aoa 0..2, cas 0..2, aoa ages, cas ages]
+        n = N_AIR
+        att_age = (t_us - self._att_t) * S_PER_US
+        baro_age = (t_us - self._baro_t) * S_PER_US
+        baro_ok = baro_age <= stale
+        surf_age = (t_us - self._surf_t) * S_PER_US
+        surf = self._surf if surf_age <= stale else None
         f = Frame(
-            t_us=t_us, imu=list(self._imu),
-            euler_rad=self._att if att_ok else None,
-            att_age_s=(t_us - self._att_t) * 1e-6 if self._att is not None else math.inf,
-            lat_rad=self._lat, lon_rad=self._lon, alt_msl_m=self._alt,
-            aoa_rad=aoa, aoa_age_s=aoa_age.astype(float), cas_mps=cas,
-            cas_age_s=cas_age.astype(float), air_new=self._air_new, ssa_rad=self._ssa,
-            baro_alt_m=self._baro_alt if t_us - self._air_t <= stale else math.nan,
-            climb_mps=self._climb if t_us - self._air_t <= stale else math.nan,
-            air_age_s=(t_us - self._air_t) * 1e-6,
-            static_pressure_pa=self._p_static, oat_k=self._oat,
+            t_us, list(self._imu),
+            self._att if att_age <= stale else None,
+            att_age if self._att is not None else math.inf,
+            aoa_rad=air[0:n], aoa_age_s=air[2 * n:3 * n], cas_mps=air[n:2 * n],
+            cas_age_s=air[3 * n:4 * n], air_new=self._air_new,
+            ssa_rad=self._ssa if (t_us - self._ssa_t) * S_PER_US <= stale else nan,
+            baro_alt_m=self._baro_alt if baro_ok else nan,
+            climb_mps=self._climb if baro_ok else nan,
+            air_age_s=min(min(ages), baro_age),
+            static_pressure_pa=(self._p_static if (t_us - self._p_static_t) * S_PER_US <= stale
+                                else nan),
+            oat_k=self._oat,
             surf_cmd_rad=surf[0] if surf else None, surf_pos_rad=surf[1] if surf else None,
-            rod_pos_m=surf[2] if surf else None, surf_age_s=(t_us - self._surf_t) * 1e-6,
+            rod_pos_m=surf[2] if surf else None, surf_age_s=surf_age,
+            reset=self._next_reset_flag, gps_fix=self._gps_fix,
         )
         self._air_new = False
+        self._next_reset_flag = False
         return f
 
-    def _release(self) -> list[Frame]:
-        out: list[Frame] = []
-        pend = self._pending
-        g = self._gps_last
-        while pend:
-            f = pend[0]
-            if g is not None and f.t_us <= g[0]:
-                out.append(self._finish(pend.popleft()))
-            elif self._now_us - f.t_us > self.max_wait_us or len(pend) > self.max_pending:
-                out.append(self._finish(pend.popleft()))
-            else:
-                break
-        return out
-
     def _finish(self, f: Frame) -> Frame:
-        """Attach the GPS velocity at the frame's time (interpolated, or held with its age)."""
-        t = f.t_us
-        g1, g0 = self._gps_last, self._gps_prev
-        f.gps_delay_us = max(0, self._now_us - t)
-        if g1 is not None and g0 is not None and g0[0] <= t <= g1[0]:
-            w = (t - g0[0]) / (g1[0] - g0[0])
-            f.gps_vel_ned_mps = g0[1] + w * (g1[1] - g0[1])
-            f.gps_age_s = (t - g0[0]) * 1e-6
-        elif g1 is not None and t >= g1[0]:
-            age = (t - g1[0]) * 1e-6
-            f.gps_age_s = age
-            f.gps_vel_ned_mps = g1[1] if age * 1e6 <= self.stale_us else None
-        elif g0 is not None and t < g0[0]:
-            f.gps_age_s = math.inf  # older than anything bracketing it (start of data)
-            f.gps_vel_ned_mps = None
-        if self._gps_seen_since_frame and f.gps_vel_ned_mps is not None:
-            f.gps_new = True
-            self._gps_seen_since_frame = False
+        """Attach the GPS velocity interpolated at ``t_us - query_lag`` (module docstring)."""
+        lag = self.query_lag_us
+        g = interpolate_gps(self._gps, f.t_us - lag, self.stale_us, self.stale_us)
+        f.gps_delay_us = lag
+        f.output_delay_us = self.align_delay_us
+        f.gps_age_s = g.age_s
+        if g.base is not None:
+            f.lat_rad, f.lon_rad, f.alt_msl_m = g.base.lat_rad, g.base.lon_rad, g.base.alt_msl_m
+            if g.base.t_us != self._gps_base_t:
+                self._gps_base_t = g.base.t_us
+                f.gps_new = True
+        fix_ok = self._gps_fix < 0 or self._gps_fix >= GPS_FIX_3D
+        f.gps_vel_ned_mps = g.vel_ned_mps if fix_ok else None
+        f.gps_fix = self._gps_fix
         self.frames_out += 1
         return f
 
+    # -- reporting ---------------------------------------------------------------------------
     def availability(self) -> dict[str, Any]:
-        """Which inputs this vehicle's telemetry carries (for 'which estimators can run')."""
+        """Which inputs this vehicle's telemetry carries (see :func:`input_availability`)."""
         s = self.seen
-        n_imu = sum(1 for x in self._imu if x is not None)
-        n_aoa = int(np.sum(self._aoa_t > -(10**14)))
-        n_cas = int(np.sum(self._cas_t > -(10**14)))
         return {
-            "imu_instances": n_imu, "imu_source": "HIGHRES_IMU" if self._highres else
-            ("SCALED_IMU" if n_imu else "none"),
-            "attitude": s["ATTITUDE"] > 0, "gps_velocity": s["GLOBAL_POSITION_INT"] > 0,
-            "aoa_instances": n_aoa, "cas_instances": n_cas, "baro": s["VFR_HUD"] > 0,
-            "surfaces": s["DEBUG_FLOAT_ARRAY"] > 0,
+            "imu_instances": len(self._ever_imu), "imu_ids": sorted(self._ever_imu),
+            "imu_source": self._imu_source, "primary_imu": self._primary,
+            "attitude": "ATTITUDE" in s, "gps_velocity": "GLOBAL_POSITION_INT" in s,
+            "aoa_instances": len(self._ever_aoa), "aoa_ids": sorted(self._ever_aoa),
+            "cas_instances": len(self._ever_cas), "cas_ids": sorted(self._ever_cas),
+            "ssa": "AOA_SSA" in s, "baro": "VFR_HUD" in s,
+            "static_pressure": "SCALED_PRESSURE" in s,
+            "surfaces": self._ever_surf,
+            "frames": self.frames_out,
         }
+
+
+def input_availability(source: FrameAssembler | Any) -> dict[str, Any]:
+    """Which inputs are present: IMU instances, attitude, GPS velocity, AoA, CAS, surfaces.
+
+    ``source`` is a :class:`FrameAssembler` (what it has seen) or an iterable of Frames (what
+    they carry valid at least once). Keys: ``imu_instances``/``aoa_instances``/``cas_instances``
+    (counts), ``imu_ids``/``aoa_ids``/``cas_ids`` (instance lists), ``attitude``,
+    ``gps_velocity``, ``ssa``, ``baro``, ``static_pressure``, ``surfaces`` (bools), ``frames``.
+    """
+    if isinstance(source, FrameAssembler):
+        return source.availability()
+    imu: set[int] = set()
+    aoa = np.zeros(N_AIR, dtype=bool)
+    cas = np.zeros(N_AIR, dtype=bool)
+    att = gps = ssa = baro = static = surf = False
+    n = 0
+    for f in source:
+        n += 1
+        for s in f.imu:
+            if s is not None:
+                imu.add(s.instance)
+        att = att or f.euler_rad is not None
+        gps = gps or f.gps_vel_ned_mps is not None
+        aoa |= np.isfinite(f.aoa_rad[:N_AIR])
+        cas |= np.isfinite(f.cas_mps[:N_AIR])
+        ssa = ssa or math.isfinite(f.ssa_rad)
+        baro = baro or math.isfinite(f.baro_alt_m)
+        static = static or math.isfinite(f.static_pressure_pa)
+        surf = surf or f.surf_pos_rad is not None
+    aoa_ids = [int(i) for i in np.flatnonzero(aoa)]
+    cas_ids = [int(i) for i in np.flatnonzero(cas)]
+    return {"imu_instances": len(imu), "imu_ids": sorted(imu), "attitude": att,
+            "gps_velocity": gps, "aoa_instances": len(aoa_ids), "aoa_ids": aoa_ids,
+            "cas_instances": len(cas_ids), "cas_ids": cas_ids, "ssa": ssa, "baro": baro,
+            "static_pressure": static, "surfaces": surf, "frames": n}

@@ -37,6 +37,9 @@ class Frame:
     gps_delay_us : how far behind ``t_us`` the interpolated GPS velocity is (0 for held data)
     aoa_rad, cas_mps : (n,) per redundant instance; NaN where that instance has no valid data
     aoa_age_s, cas_age_s : (n,) age of each instance's latest value
+    output_delay_us : with ``align_delay_us`` set, every input of this frame is that much older
+        than the newest data received (everything consistently delayed); 0 otherwise
+    reset : the assembler was reset (autopilot reboot) just before this frame
     """
 
     t_us: int
@@ -65,6 +68,10 @@ class Frame:
     surf_pos_rad: Vec | None = None
     rod_pos_m: Vec | None = None
     surf_age_s: float = float("inf")
+    # added by the assembler (telemetry room); see assembler.py for the delay conventions
+    output_delay_us: int = 0  # how far behind the newest received vehicle time this frame is
+    gps_fix: int = -1  # GPS_RAW_INT fix_type (-1: no GPS_RAW_INT seen); velocity needs >= 3
+    reset: bool = False  # first frame after an assembler reset (autopilot reboot)
 
     @property
     def primary_imu(self) -> ImuSample | None:

@@ -15,7 +15,10 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import numpy as np
+
 from gcs_monitor.models.servo import ServoLoopParams, ServoParams, stalled_pressure
+from sim_vehicle.actuators import _servo_jit as _sj
 from sim_vehicle.actuators.faults import ActuatorFault, apply_to_valve, fault_effect
 
 N_SURFACES = 3
@@ -46,14 +49,19 @@ class ServoBank:
         self.lp = loop if loop is not None else ServoLoopParams()
         self.faults = tuple(faults)
         self._faulted = tuple(any(f.surface == i for f in self.faults) for i in range(N_SURFACES))
-        self.x: list[list[float]] = []
+        rows = []
         for d in init_defl_rad:
             q0 = d / geometry.rod_gain_radpm
-            self.x.append([q0, 0.0, 0.0, q0, 0.0, 0.0])
+            rows.append([q0, 0.0, 0.0, q0, 0.0, 0.0])
+        self.x = np.array(rows, dtype=float)  # (3, 6) state per surface
+        self._rod: list[float] = self.x[:, 0].tolist()  # x1 per surface as floats (outputs)
         self.cmd_rad = [float(d) for d in init_defl_rad]
         self.sensor_bias_m = [0.0] * N_SURFACES
         self._jam_pos: list[float | None] = [None] * N_SURFACES
         self._f = self._make_deriv()
+        self._prm = _sj.pack_params(self.p, self.lp, geometry.rod_stroke_m)
+        self._inp = np.zeros((N_SURFACES, _sj.N_IN))
+        self._inp_faults = [False] * N_SURFACES  # fault columns of the row not yet cleared
 
     # ------------------------------------------------------------------ derivative
     def _make_deriv(self):  # type: ignore[no-untyped-def]
@@ -62,7 +70,8 @@ class ServoBank:
         Same equations as :func:`gcs_monitor.models.servo.servo_derivative`,
         :func:`~gcs_monitor.models.servo.ndi_control` and
         :func:`~gcs_monitor.models.servo.reference_model_derivative` (a test checks they
-        agree); inlined because it runs 12 times per simulation step.
+        agree). The compiled RK4 (``_servo_jit``) is this closure written for numba; the
+        closure itself serves the jam path and the tests.
         """
         p = self.p
         lp = self.lp
@@ -106,89 +115,59 @@ class ServoBank:
         return deriv
 
     def step(self, t_s: float, dt_s: float, cmd_rad: Sequence[float]) -> None:
-        """Advance all servos from ``t_s`` to ``t_s + dt_s`` with the commands held."""
+        """Advance all servos from ``t_s`` to ``t_s + dt_s`` with the commands held.
+
+        A jammed surface is handled here; the others go through the compiled RK4
+        (:func:`sim_vehicle.actuators._servo_jit.step_bank`, same equations as :meth:`_make_deriv`).
+        """
         stroke = self.geo.rod_stroke_m
         gain = self.geo.rod_gain_radpm
+        inp = self._inp
         for i in range(N_SURFACES):
             c = cmd_rad[i]
             self.cmd_rad[i] = c
             q_com = max(-stroke, min(stroke, c / gain))
             eff = fault_effect(self.faults, i, t_s) if self._faulted[i] else None
-            s = self.x[i]
             self.sensor_bias_m[i] = eff.sensor_bias_m if eff is not None else 0.0
+            row = inp[i]
             if eff is not None and eff.jammed:
+                s = self.x[i]
                 if self._jam_pos[i] is None:
-                    self._jam_pos[i] = s[0]
+                    self._jam_pos[i] = float(s[0])
                 # Surface mechanically stuck: rod frozen; the reference model keeps running.
-                k1 = self._f(*s, q_com, eff.sensor_bias_m, eff)
+                k1 = self._f(*s.tolist(), q_com, eff.sensor_bias_m, eff)
                 s[3] += dt_s * k1[3]
                 s[4] += dt_s * k1[4]
                 s[5] += dt_s * k1[5]
-                s[0] = self._jam_pos[i]  # type: ignore[assignment]
+                s[0] = self._jam_pos[i]
                 s[1] = 0.0
+                row[_sj.I_ACTIVE] = 0.0
                 continue
             self._jam_pos[i] = None
-            bias = self.sensor_bias_m[i]
-            h = 0.5 * dt_s
-            f = self._f
-            x1, x2, x3, r, rd, rdd = s
-            a1, a2, a3, a4, a5, a6 = f(x1, x2, x3, r, rd, rdd, q_com, bias, eff)
-            b1, b2, b3, b4, b5, b6 = f(
-                x1 + h * a1,
-                x2 + h * a2,
-                x3 + h * a3,
-                r + h * a4,
-                rd + h * a5,
-                rdd + h * a6,
-                q_com,
-                bias,
-                eff,
-            )
-            c1, c2, c3, c4, c5, c6 = f(
-                x1 + h * b1,
-                x2 + h * b2,
-                x3 + h * b3,
-                r + h * b4,
-                rd + h * b5,
-                rdd + h * b6,
-                q_com,
-                bias,
-                eff,
-            )
-            d1, d2, d3, d4, d5, d6 = f(
-                x1 + dt_s * c1,
-                x2 + dt_s * c2,
-                x3 + dt_s * c3,
-                r + dt_s * c4,
-                rd + dt_s * c5,
-                rdd + dt_s * c6,
-                q_com,
-                bias,
-                eff,
-            )
-            e = dt_s / 6.0
-            s[0] = x1 + e * (a1 + 2.0 * (b1 + c1) + d1)
-            s[1] = x2 + e * (a2 + 2.0 * (b2 + c2) + d2)
-            s[2] = x3 + e * (a3 + 2.0 * (b3 + c3) + d3)
-            s[3] = r + e * (a4 + 2.0 * (b4 + c4) + d4)
-            s[4] = rd + e * (a5 + 2.0 * (b5 + c5) + d5)
-            s[5] = rdd + e * (a6 + 2.0 * (b6 + c6) + d6)
-            # Mechanical stop: inelastic; the chamber pressure settles in ~ms to its stalled value.
-            if s[0] > stroke or s[0] < -stroke:
-                s[0] = stroke if s[0] > 0.0 else -stroke
-                s[1] = 0.0
-                u_end = 0.0
-                if eff is not None and eff.runaway_dir != 0.0:
-                    u_end = eff.runaway_dir
-                s[2] = stalled_pressure(u_end, self.p) if u_end * s[0] > 0.0 else s[2]
+            row[_sj.I_ACTIVE] = 1.0
+            row[_sj.I_Q_COM] = q_com
+            row[_sj.I_BIAS] = self.sensor_bias_m[i]
+            if eff is not None:
+                row[_sj.I_EFF] = 1.0
+                row[_sj.I_RUNAWAY] = eff.runaway_dir
+                row[_sj.I_HAS_REP] = 0.0 if eff.u_replace is None else 1.0
+                row[_sj.I_REP] = 0.0 if eff.u_replace is None else eff.u_replace
+                row[_sj.I_ADD] = eff.u_add
+                row[_sj.I_STALL_P] = stalled_pressure(eff.runaway_dir, self.p)
+                self._inp_faults[i] = True
+            elif self._inp_faults[i]:
+                row[_sj.I_EFF] = 0.0
+                self._inp_faults[i] = False
+        _sj.step_bank(self.x, inp, dt_s, self._prm)
+        self._rod = self.x[:, 0].tolist()
 
     # ------------------------------------------------------------------ outputs
     def deflection_rad(self, i: int) -> float:
-        return self.geo.rod_gain_radpm * self.x[i][0]
+        return self.geo.rod_gain_radpm * self._rod[i]
 
     def rod_sensor_m(self, i: int) -> float:
         """Rod position sensor (Lu2017 eq. 5: x1 + f^o)."""
-        return self.x[i][0] + self.sensor_bias_m[i]
+        return self._rod[i] + self.sensor_bias_m[i]
 
     def rod_m(self, i: int) -> float:
-        return self.x[i][0]
+        return self._rod[i]

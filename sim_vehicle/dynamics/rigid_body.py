@@ -19,7 +19,9 @@ Attitude: ``q' = 1/2 q (x) [0, omega_nb]`` with
 the resulting Euler rates are exactly Lu2016 eq. 11 rows 4-6. Rotational dynamics: Euler's
 equations with J_xz (Beard & McLain eq. 3.17, Gamma terms).
 
-Everything is plain-float Python: the simulator's per-step budget is ~100 microseconds.
+Everything is plain-float Python and serves as the reference (trim, tests); the simulation
+loop runs the numba twin in ``_rigid_body_jit`` (same equations, same operation order,
+checked to 1e-12 by a test).
 """
 
 from __future__ import annotations

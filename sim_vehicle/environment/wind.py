@@ -43,6 +43,7 @@ REDISCRETISE_REL = 0.02  # relative airspeed change that triggers a new exact di
 MIN_AIRSPEED_MPS = 1.0  # the forming filters need V > 0
 SHEAR_DURATION_S = 20.0
 SHEAR_VERTICAL_RATIO = 0.5
+NOISE_BLOCK = 1024  # turbulence steps of white noise drawn at once
 
 
 def dryden_psd(
@@ -98,6 +99,8 @@ class DrydenTurbulence:
         self.xv = [0.0, 0.0]
         self.xw = [0.0, 0.0]
         self._started = False
+        self._noise: list[list[float]] = []  # pre-drawn unit normals, 5 per step
+        self._row = 0
 
     def _update_discretisation(self, tas_mps: float) -> None:
         v = max(tas_mps, MIN_AIRSPEED_MPS)
@@ -133,11 +136,16 @@ class DrydenTurbulence:
         """Advance one ``dt_s`` at airspeed ``tas_mps``; return body-axis (u, v, w) gust, m/s."""
         if abs(tas_mps - self._v_disc) > REDISCRETISE_REL * self._v_disc:
             self._update_discretisation(tas_mps)
-        n = self.rng.standard_normal(5)
-        self.xu = self.phi_u * self.xu + self.q_u * float(n[0])
+        if self._row >= len(self._noise):
+            # Drawn in blocks: the same numbers, in the same order, as one draw of 5 per step.
+            self._noise = self.rng.standard_normal((NOISE_BLOCK, 5)).tolist()
+            self._row = 0
+        n = self._noise[self._row]
+        self._row += 1
+        self.xu = self.phi_u * self.xu + self.q_u * n[0]
         p = self.phi_vw
         lq = self.l_vw
-        for x, n0, n1 in ((self.xv, float(n[1]), float(n[2])), (self.xw, float(n[3]), float(n[4]))):
+        for x, n0, n1 in ((self.xv, n[1], n[2]), (self.xw, n[3], n[4])):
             a0 = p[0][0] * x[0] + p[0][1] * x[1] + lq[0][0] * n0
             a1 = p[1][0] * x[0] + p[1][1] * x[1] + lq[1][0] * n0 + lq[1][1] * n1
             x[0], x[1] = a0, a1

@@ -103,12 +103,16 @@ class _Group:
     rng: np.random.Generator
     next_due_us: int = 0
     faulted: list[tuple[int, str]] = field(default_factory=list)  # (index, channel)
+    scaled: bool = True  # blocks hold sigma * noise (False: unit noise, sigma varies)
     _block: Vec = field(default_factory=lambda: np.empty((0, 0)))
     _row: int = 0
 
     def noise(self) -> Vec:
+        """The next noise row: ``sigma * N(0, 1)`` (unit normal if not ``scaled``)."""
         if self._row >= self._block.shape[0]:
             self._block = self.rng.standard_normal((_NOISE_BLOCK, len(self.channels)))
+            if self.scaled:
+                self._block *= self.sigma
             self._row = 0
         row = self._block[self._row]
         self._row += 1
@@ -156,6 +160,7 @@ class SensorSuite:
                 sigma=group_sigma(g, sensor_set.noise),
                 rng=np.random.default_rng(group_seed(seed, g)),
             )
+            grp.scaled = g != "gps"
             grp.faulted = [(i, c) for i, c in enumerate(chans) if c in faulted]
             for _, c in grp.faulted:
                 self.fault_log[c] = ([], [])
@@ -168,19 +173,25 @@ class SensorSuite:
             self._gps_hist.append((t_us, true_values("gps", state)))
             while len(self._gps_hist) > 1 and self._gps_hist[1][0] <= t_us - self.gps_latency_us:
                 self._gps_hist.popleft()
+        imu_true: Vec | None = None  # shared by the IMU instances
         for g in self.groups:
             if t_us < g.next_due_us:
                 continue
             g.next_due_us += g.period_us
             if g.next_due_us <= t_us:  # a rate above the step rate: resynchronise, never burst
                 g.next_due_us = t_us + g.period_us
-            if g.name == "gps":
+            name = g.name
+            if name == "gps":
                 x = self._gps_hist[0][1] if self.gps_latency_us > 0 else true_values("gps", state)
-                sigma = group_sigma("gps", self.sensor_set.noise, float(x[3]))
+                y = x + group_sigma("gps", self.sensor_set.noise, float(x[3])) * g.noise()
             else:
-                x = true_values(g.name, state)
-                sigma = g.sigma
-            y = x + sigma * g.noise()
+                if name[:3] == "imu":
+                    if imu_true is None:
+                        imu_true = true_values(name, state)
+                    x = imu_true
+                else:
+                    x = true_values(name, state)
+                y = x + g.noise()  # the block is already scaled by sigma
             if g.faulted:
                 t_s = t_us * 1e-6
                 for i, ch in g.faulted:
@@ -191,5 +202,5 @@ class SensorSuite:
                         ts, fv = self.fault_log[ch]
                         ts.append(t_s)
                         fv.append(yi - healthy)
-            out.append(SensorSample(g.name, t_us, y))
+            out.append(SensorSample(name, t_us, y))
         return out

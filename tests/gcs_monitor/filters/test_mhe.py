@@ -273,12 +273,27 @@ def test_horizon_shift_and_fixed_size() -> None:
     assert replace(s, n=1).n == 1
 
 
-def test_compiled_kernel_matches_numpy_reference() -> None:
+class _MethodsOnly:
+    """AirDataModel without its compiled ``linearise_horizon``: a generic MheModel."""
+
+    def __init__(self) -> None:
+        self._m = AirDataModel()
+        self.n_x, self.n_u, self.n_y = 4, 4, 4
+        self.f, self.f_jac_x, self.f_jac_u = self._m.f, self._m.f_jac_x, self._m.f_jac_u
+        self.h, self.h_jac_x = self._m.h, self._m.h_jac_x
+
+
+@pytest.mark.parametrize("horizon_n", [1, 3, 5])
+@pytest.mark.parametrize("model_kind", ["airdata", "methods_only"])
+def test_compiled_kernel_matches_numpy_reference(horizon_n: int, model_kind: str) -> None:
+    """filters/_mhe_jit.py (+ the model's compiled linearisation, or its methods) against the
+    numpy reference: CAS runaway into the wind bounds, a lost CAS sample (NaN, masked) and a
+    bounds change that forces the interior clip."""
     from gcs_monitor.filters.mhe import compiled_kernel
 
     if compiled_kernel() is None:
         pytest.skip("numba not installed")
-    model = AirDataModel()
+    model = AirDataModel() if model_kind == "airdata" else _MethodsOnly()
     theta = np.array([130.0, 0.05, 0.0, 0.5, -9.79, 1500.0])
     x0 = np.array([0.05, 130.0, 0.0, 0.0])
     w = MheWeights(
@@ -286,38 +301,40 @@ def test_compiled_kernel_matches_numpy_reference() -> None:
         np.array([1e-4, 1e-2, 1.0, 1.0]),
         np.array([0.04, 0.04, 3e-5, 0.3]),
     )
-    b = MheBounds(
+    b_wide = MheBounds(
         np.array([-np.inf, -np.inf, -5.0, -3.0]),
         np.array([np.inf, np.inf, 5.0, 3.0]),
         np.array([-np.inf, -np.inf, -1.0, -1.0]),
         np.array([np.inf, np.inf, 1.0, 1.0]),
     )
+    b_tight = replace(b_wide, x_lb=np.array([-np.inf, -np.inf, -2.0, -3.0]),
+                      x_ub=np.array([np.inf, np.inf, 2.0, 3.0]))  # fmt: skip
     y0 = model.h(x0, theta)
     for constrained in (True, False):
-        s_py = s_nb = mhe_init(x0, y0, np.ones(4), theta, 3, 4)
+        s_py = s_nb = mhe_init(x0, y0, np.ones(4), theta, horizon_n, 4)
         for k in range(40):
             y = y0 + np.array([0.0, 0.0, 0.0, -0.4 * k])
-            s_py, _ = mhe_step(
-                s_py,
-                model,
-                y,
-                np.ones(4),
-                theta,
-                0.05,
-                w,
-                b,
-                IpSettings(constrained=constrained, compiled=False),
-            )
-            s_nb, _ = mhe_step(
-                s_nb,
-                model,
-                y,
-                np.ones(4),
-                theta,
-                0.05,
-                w,
-                b,
-                IpSettings(constrained=constrained, compiled=True),
-            )
-        # Same algorithm, different summation order (Cholesky vs inv): round-off only.
-        np.testing.assert_allclose(s_nb.x, s_py.x, rtol=1e-9, atol=1e-9)
+            mask = np.ones(4)
+            if k % 7 == 3:  # CAS lost: NaN and its row of C zeroed (Wan2018 sec. V-C)
+                y[3], mask[3] = np.nan, 0.0
+            th = theta + np.array([0.1 * k, 0.0, 0.0, 0.0, 0.0, 1.0 * k])
+            bnd = b_wide if k < 25 else b_tight
+            out = []
+            for s, compiled in ((s_py, False), (s_nb, True)):
+                ip = IpSettings(constrained=constrained, compiled=compiled)
+                out.append(mhe_step(s, model, y, mask, th, 0.05, w, bnd, ip))
+            (s_py, i_py), (s_nb, i_nb) = out
+            assert s_nb.n == s_py.n
+            n = s_py.n
+            # Same algorithm, different summation order (Cholesky vs inv): round-off only.
+            np.testing.assert_allclose(s_nb.x[:n], s_py.x[:n], rtol=1e-9, atol=1e-9)
+            np.testing.assert_allclose(s_nb.u[: n - 1], s_py.u[: n - 1], rtol=1e-9, atol=1e-9)
+            np.testing.assert_array_equal(s_nb.theta[:n], s_py.theta[:n])
+            np.testing.assert_array_equal(s_nb.dt_s[: n - 1], s_py.dt_s[: n - 1])
+            np.testing.assert_array_equal(s_nb.y[:n], s_py.y[:n])
+            np.testing.assert_array_equal(s_nb.y_mask[:n], s_py.y_mask[:n])
+            np.testing.assert_array_equal(i_nb.step_sizes, i_py.step_sizes)
+            assert i_nb.n_active == i_py.n_active
+            assert i_nb.numerics_ok and i_py.numerics_ok
+        if constrained and horizon_n > 1:
+            assert i_py.n_active > 0  # the runaway drove W_x onto its bound: the test saw it

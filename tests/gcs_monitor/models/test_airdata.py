@@ -10,6 +10,7 @@ import pytest
 from gcs_monitor.core.atmosphere import cas_from_tas
 from gcs_monitor.core.constants import GRAVITY_STD_MPS2
 from gcs_monitor.models.airdata import (
+    AirDataModel,
     AirDataModelParams,
     airdata_derivative,
     airdata_f,
@@ -19,6 +20,7 @@ from gcs_monitor.models.airdata import (
     airdata_h_jac_x,
     airdata_initial_state,
     cas_from_tas_with_derivative,
+    compiled_kernels,
 )
 
 P = AirDataModelParams()
@@ -125,3 +127,41 @@ def test_initial_state_inverts_the_output() -> None:
     y = airdata_h(x, th)
     x0 = airdata_initial_state(y[2], y[3], th, wind_z_mps=x[3])
     np.testing.assert_allclose(x0, x, rtol=1e-9, atol=1e-9)
+
+
+def test_compiled_horizon_linearisation_matches_methods() -> None:
+    """models/_airdata_jit.py: A, B, defects, masked C and r_y over a horizon equal the numpy
+    methods node by node (Wan2018 eq. 42), with one output masked."""
+    if compiled_kernels() is None:
+        pytest.skip("numba not installed")
+    rng = np.random.default_rng(4)
+    model = AirDataModel()
+    big_n, n = 4, 3
+    pts = [_random_point(rng) for _ in range(big_n)]
+    x_lin = np.array([p[0] for p in pts])
+    th = np.array([p[1] for p in pts])
+    u_lin = 0.01 * rng.standard_normal((big_n - 1, 4))
+    dts = np.full(big_n, 0.05)
+    mk = np.ones((big_n, 4))
+    mk[1, 3] = 0.0  # CAS lost at node 1 (Wan2018 sec. V-C)
+    ym = np.array([model.h(x_lin[i], th[i]) for i in range(big_n)])
+    ym += rng.standard_normal((big_n, 4))
+    ym *= mk
+    out = [np.zeros((big_n - 1, 4, 4)), np.zeros((big_n - 1, 4, 4)), np.zeros((big_n - 1, 4)),
+           np.zeros((big_n, 4, 4)), np.zeros((big_n, 4))]  # fmt: skip
+    assert model.linearise_horizon(n, x_lin, u_lin, th, dts, ym, mk, *out)
+    a, b, f, cm, ry = out
+    for i in range(n):
+        # same expressions in the same order: a few ulp
+        np.testing.assert_allclose(cm[i], model.h_jac_x(x_lin[i], th[i]) * mk[i][:, None],
+                                   rtol=1e-13, atol=1e-13)  # fmt: skip
+        np.testing.assert_allclose(ry[i], (ym[i] - model.h(x_lin[i], th[i])) * mk[i],
+                                   rtol=1e-12, atol=1e-11)  # fmt: skip
+        if i < n - 1:
+            np.testing.assert_allclose(a[i], model.f_jac_x(x_lin[i], u_lin[i], th[i], dts[i]),
+                                       rtol=1e-13, atol=1e-15)  # fmt: skip
+            np.testing.assert_array_equal(b[i], model.f_jac_u(x_lin[i], u_lin[i], th[i], dts[i]))
+            f_ref = model.f(x_lin[i], u_lin[i], th[i], dts[i]) - x_lin[i + 1]
+            np.testing.assert_allclose(f[i], f_ref, rtol=1e-12, atol=1e-11)
+    # rows from n on are left untouched
+    assert not np.any(cm[n:]) and not np.any(ry[n:]) and not np.any(a[n - 1 :])

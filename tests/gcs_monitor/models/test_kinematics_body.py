@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from gcs_monitor.core.frames import dcm_ned_frd
 from gcs_monitor.models.kinematics_body import (
@@ -13,6 +14,7 @@ from gcs_monitor.models.kinematics_body import (
     body_gs_meas_jac,
     body_gs_measurement,
     body_gs_noise_matrix,
+    compiled_kernels,
     drift_rate_to_fault,
     own_drift_gain,
 )
@@ -100,3 +102,26 @@ def test_synthetic_truth_obeys_fault_free_model() -> None:
         np.testing.assert_allclose(body_gs_derivative(x, u, np.zeros(6), g), xd, atol=1e-6)
         np.testing.assert_allclose(body_gs_measurement(x)[:3], vel_ned, atol=1e-9)
     assert math.isfinite(float(x[0]))
+
+
+def test_compiled_model_matches_numpy_reference() -> None:
+    """models/_kinematics_body_jit.py writes the same equations: equal to round-off."""
+    kb = compiled_kernels()
+    if kb is None:
+        pytest.skip("numba not installed")
+    rng = np.random.default_rng(8)
+    for _ in range(20):
+        x, u_m, f_hat = _random_case(rng)
+        out, h = np.empty(6), np.empty(6)
+        F, Gm, H = np.empty((6, 6)), np.empty((6, 6)), np.empty((6, 6))
+        kb.derivative(x, u_m, f_hat, G, out)
+        kb.jac_x(x, u_m, f_hat, G, F)
+        kb.noise_matrix(x, Gm)
+        kb.measurement(x, h, H)
+        # identical expressions in the same order: a few ulp at most
+        tol = {"rtol": 1e-13, "atol": 1e-12}
+        np.testing.assert_allclose(out, body_gs_derivative(x, u_m, f_hat, G), **tol)
+        np.testing.assert_allclose(F, body_gs_jac_x(x, u_m, f_hat, G), **tol)
+        np.testing.assert_allclose(Gm, body_gs_noise_matrix(x), **tol)
+        np.testing.assert_allclose(h, body_gs_measurement(x), **tol)
+        np.testing.assert_allclose(H, body_gs_meas_jac(x), **tol)

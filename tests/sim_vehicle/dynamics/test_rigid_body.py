@@ -155,3 +155,45 @@ def test_both_airframes_load_with_sources() -> None:
     for name in ("uav", "transport"):
         af = load_airframe(name)
         assert af.source and af.mass.mass_kg > 0 and af.default_tas_mps > 0
+
+
+# --------------------------------------------------------------------------- compiled kernel
+def _random_state(rng: np.random.Generator, tas: float) -> list[float]:
+    q = quat_from_euler(*rng.uniform([-0.6, -0.3, -3.0], [0.6, 0.3, 3.0]))
+    v = rng.normal(0.0, 0.1 * tas, 3) + np.array([tas, 0.0, 0.0])
+    return [
+        *rng.uniform([0.1, -1.0, 50.0], [1.2, 1.0, 9000.0]),
+        *v,
+        *(float(x) for x in q),
+        *rng.normal(0.0, 0.2, 3),
+        float(rng.uniform(0.0, 1.0)),
+    ]
+
+
+@pytest.mark.parametrize("name", ["uav", "transport"])
+def test_compiled_kernel_matches_python_evaluate_and_rk4(name: str) -> None:
+    from sim_vehicle.dynamics import _rigid_body_jit as rbj
+    from sim_vehicle.dynamics.rigid_body import rk4_step
+
+    af = load_airframe(name)
+    body = RigidBody(af)
+    prm = rbj.pack_params(body)
+    rng = np.random.default_rng(7)
+    for _ in range(20):
+        x = _random_state(rng, af.default_tas_mps)
+        inp0 = tuple(float(v) for v in rng.normal(0.0, [0.1, 0.1, 0.1, 0.3, 3, 3, 1]))
+        inp1 = tuple(float(v) for v in rng.normal(0.0, [0.1, 0.1, 0.1, 0.3, 3, 3, 1]))
+        d_ref, out_ref = body.evaluate(x, *inp0)
+        d, out = np.empty(14), np.empty(rbj.N_OUT)
+        rbj.evaluate(np.array(x), np.array(inp0), prm, d, out)
+        np.testing.assert_allclose(d, d_ref, rtol=1e-12, atol=1e-15)
+        np.testing.assert_allclose(out, out_ref, rtol=1e-12, atol=1e-15)
+        # step = rk4_step (k1 given) then evaluate at the new state with the end inputs
+        x_ref = rk4_step(body, x, 0.01, inp0, inp1, list(d_ref))
+        d1_ref, out1_ref = body.evaluate(x_ref, *inp1)
+        xn, dn, on = np.empty(14), np.empty(14), np.empty(rbj.N_OUT)
+        rbj.step(np.array(x), 0.01, np.array(inp0 + inp1), d, prm, xn, dn, on)
+        np.testing.assert_allclose(xn, x_ref, rtol=1e-12, atol=1e-15)
+        np.testing.assert_allclose(dn, d1_ref, rtol=1e-12, atol=1e-15)
+        np.testing.assert_allclose(on, out1_ref, rtol=1e-12, atol=1e-15)
+        assert math.isclose(float(np.linalg.norm(xn[6:10])), 1.0, rel_tol=1e-14)

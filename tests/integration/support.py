@@ -1,0 +1,90 @@
+"""Helpers of the end-to-end tests: a fault-free simulated stream, a Monitor runner, repacking."""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+from dataclasses import dataclass, field
+from typing import Any
+
+from gcs_monitor.fdi.events import AlarmEvent, AlarmKind
+from gcs_monitor.link.mav import mavlink
+from gcs_monitor.monitor import Monitor
+
+BASE_PRESET = "lu2016_calm"  # calm level flight; its Table 2 IMU faults are removed
+BASE_DURATION_S = 8.0
+SENSOR_KINDS = frozenset({AlarmKind.SENSOR_FAULT, AlarmKind.ACTUATOR_FAULT, AlarmKind.SET_LOST})
+
+
+@functools.cache
+def base_packets() -> list[tuple[int, bytes]]:
+    """A fault-free simulated flight as (t_us, packet), every contract message."""
+    from sim_vehicle.run import iter_packets
+    from sim_vehicle.scenario import load_scenario
+
+    sc = load_scenario(BASE_PRESET)
+    sc = dataclasses.replace(sc, faults=(), duration_s=BASE_DURATION_S)
+    return list(iter_packets(sc))
+
+
+@dataclass
+class MonitorRun:
+    monitor: Monitor
+    events: list[AlarmEvent]
+    health: dict[str, Any]
+    resets: list[str] = field(default_factory=list)  # estimator names, one per reset() call
+    estimators: list[str] = field(default_factory=list)  # every estimator built
+
+    @property
+    def sensor_alarms(self) -> list[AlarmEvent]:
+        return [e for e in self.events if e.kind in SENSOR_KINDS]
+
+    def link_alarms(self, name: str) -> list[AlarmEvent]:
+        """Raised LINK alarms on ``ChannelId("link", vehicle, name)``."""
+        return [e for e in self.events if e.kind == AlarmKind.LINK
+                and e.channel.axis == name and e.state.value == "raised"]
+
+
+def run_monitor(data: bytes, *, chunk: int = 4096, **kw: Any) -> MonitorRun:
+    """Feed ``data`` through a default Monitor in chunks; count estimator resets."""
+    from gcs_monitor.monitor import build_estimators
+
+    m0 = Monitor()
+    resets: list[str] = []
+    built: list[str] = []
+
+    def estimators_for(sysid: int) -> tuple[list[Any], Any]:
+        imu, air = build_estimators(m0.cfg)
+        for est in [*imu, air]:
+            if est is None:
+                continue
+            built.append(est.name)
+            orig = est.reset
+
+            def counted(orig: Any = orig, name: str = est.name) -> None:
+                resets.append(name)
+                orig()
+
+            est.reset = counted
+        return imu, air
+
+    m = Monitor(estimators_for=estimators_for, **kw)
+    for i in range(0, len(data), chunk):
+        m.feed(data[i:i + chunk])
+    m.finish()
+    return MonitorRun(m, list(m.events), m.health(), resets, built)
+
+
+def repack(packet: bytes, **fields: Any) -> bytes:
+    """The same MAVLink 2 packet (sender, sequence number) with some fields replaced."""
+    msg = mavlink.MAVLink(None).decode(bytearray(packet))
+    for k, v in fields.items():
+        setattr(msg, k, v)
+    mav = mavlink.MAVLink(None, srcSystem=packet[5], srcComponent=packet[6])
+    mav.seq = packet[4]
+    return bytes(msg.pack(mav, force_mavlink1=False))
+
+
+def msg_name(packet: bytes) -> str:
+    cls = mavlink.mavlink_map.get(packet[7] | packet[8] << 8 | packet[9] << 16)
+    return cls.msgname if cls is not None else "?"
