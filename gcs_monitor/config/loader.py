@@ -43,10 +43,14 @@ class SetConfig:
 class FdiConfig:
     aoa: SetConfig = field(default_factory=lambda: SetConfig(threshold=1.0 * DEG2RAD))
     cas: SetConfig = field(default_factory=lambda: SetConfig(threshold=4.0 * KT2MPS))
-    acc: SetConfig = field(default_factory=lambda: SetConfig(threshold=0.5, n_eval=50,
+    # IMU fault-estimate thresholds: 1.5 x the worst fault-free RMS of the ATSEKF fault
+    # estimates over fault-free runs of every manoeuvre in turbulence (calibration seeds, not the
+    # evaluation seeds): `gcs-monitor evaluate --experiment imu_detection` prints them.
+    acc: SetConfig = field(default_factory=lambda: SetConfig(threshold=0.19, n_eval=50,
                                                              n_detect=40, latch=False))
-    gyro: SetConfig = field(default_factory=lambda: SetConfig(threshold=0.5 * DEG2RAD, n_eval=50,
-                                                              n_detect=40, latch=False))
+    gyro: SetConfig = field(default_factory=lambda: SetConfig(threshold=0.47 * DEG2RAD,
+                                                              n_eval=50, n_detect=40,
+                                                              latch=False))
 
 
 @dataclass(frozen=True, slots=True)
