@@ -124,7 +124,8 @@ def _run_source(src: Any, args: argparse.Namespace, *, duration_s: float | None 
             if now >= next_health:
                 monitor.source_counters = {"dropped_chunks": src.dropped_chunks,
                                            "dropped_bytes": src.dropped_bytes,
-                                           "resync_bytes": src.resync_bytes}
+                                           "resync_bytes": src.resync_bytes,
+                                           "truncated_bytes": getattr(src, "truncated_bytes", 0)}
                 monitor.publish_health()
                 next_health = now + 1.0
             if duration_s is not None and now - t0 >= duration_s:
@@ -138,7 +139,8 @@ def _run_source(src: Any, args: argparse.Namespace, *, duration_s: float | None 
         src.close()
         monitor.source_counters = {"dropped_chunks": src.dropped_chunks,
                                    "dropped_bytes": src.dropped_bytes,
-                                   "resync_bytes": src.resync_bytes}
+                                   "resync_bytes": src.resync_bytes,
+                                           "truncated_bytes": getattr(src, "truncated_bytes", 0)}
         monitor.close()
         if tlog_out is not None:
             tlog_out.close()
@@ -275,7 +277,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("url", help="udpin:HOST:PORT | udpout:HOST:PORT | tcp:HOST:PORT | /dev/ttyX"
                               "[:BAUD] | zenoh:KEYEXPR[@ENDPOINT]")
     s.add_argument("--duration", type=float, help="stop after this many seconds")
-    s.add_argument("--idle-timeout", type=float, help="stop after this long without data (s)")
+    s.add_argument("--idle-timeout", type=float,
+                   help="stop after this long without data, counted from the first data (s)")
     _add_sink_args(s)
     s.set_defaults(func=cmd_live)
     s = sub.add_parser("replay", help="replay a .tlog through the monitor")

@@ -120,11 +120,14 @@ class _ThreadedSource(Source):
         return self._queue.dropped_bytes
 
     def __iter__(self) -> Iterator[tuple[bytes, float]]:
-        last = time.monotonic()
+        # The idle timeout counts from the last data received; before the first data arrives
+        # the source waits (a monitor started before its vehicle must not give up).
+        last: float | None = None
         while not self._stop.is_set():
             item = self._queue.get(0.1)
             if item is None:
-                if self._idle is not None and time.monotonic() - last > self._idle:
+                if self._idle is not None and last is not None and \
+                        time.monotonic() - last > self._idle:
                     return
                 continue
             last = time.monotonic()
