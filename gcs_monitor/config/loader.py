@@ -48,7 +48,7 @@ class FdiConfig:
     # evaluation seeds): `gcs-monitor evaluate --experiment imu_detection` prints them.
     acc: SetConfig = field(default_factory=lambda: SetConfig(threshold=0.19, n_eval=50,
                                                              n_detect=40, latch=False))
-    gyro: SetConfig = field(default_factory=lambda: SetConfig(threshold=0.47 * DEG2RAD,
+    gyro: SetConfig = field(default_factory=lambda: SetConfig(threshold=0.35 * DEG2RAD,
                                                               n_eval=50, n_detect=40,
                                                               latch=False))
 
