@@ -117,6 +117,6 @@ def run_demo(out: Path, *, preset: str = "demo_airdata_faults") -> int:
         f"# Demo: {preset}\n\n{sc.description}\n\n{table}\n\n"
         f"Files: `{res.tlog_path.name}` (MAVLink), `{res.truth_path.name}` (ground truth), "
         f"`{rrd.name}` (Rerun: `rerun {rrd}`), `{journal_path.name}` (alarm journal).\n")
-    print(f"\nwrote {rrd}, {journal_path}, {res.tlog_path.name}, {summary} "
+    print(f"\nwrote {rrd}, {journal_path}, {res.tlog_path}, {summary} "
           f"in {time.monotonic() - t0:.0f} s")
     return 0
