@@ -10,6 +10,7 @@ IMU fault estimates (Lu2016 f_hat) are monitored per channel.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -23,13 +24,15 @@ from gcs_monitor.core.units import DEG2RAD, KT2MPS
 from gcs_monitor.estimators.base import Estimate, Estimator
 from gcs_monitor.fdi.confirmation import ConfirmationParams
 from gcs_monitor.fdi.events import AlarmEvent, ChannelStatus, SetStatus
+from gcs_monitor.fdi.isolation import consensus_residuals
 from gcs_monitor.fdi.monitor import (
     ChannelMonitor,
     ChannelMonitorParams,
     RedundantSetMonitor,
     SetMonitorParams,
 )
-from gcs_monitor.fdi.residuals import RmsWindowParams
+from gcs_monitor.fdi.residuals import ResidualRms, RmsWindowParams
+from gcs_monitor.fdi.voting import adaptive_weights
 from gcs_monitor.sinks import Sink
 from gcs_monitor.telemetry.frame import Frame
 
@@ -40,6 +43,56 @@ SET_NOISE = {"aoa": 0.1 * DEG2RAD, "cas": 0.1, "acc": 0.05, "gyro": 0.05 * DEG2R
 SET_RUNAWAY_RATE = {"aoa": 1.0 * DEG2RAD, "cas": 2.0 * KT2MPS, "acc": 1.0, "gyro": 1.0 * DEG2RAD}
 AIR_DT_S = 0.05  # air-data sample interval (20 Hz, docs/telemetry.md)
 IMU_DT_S = 0.01
+# Floor on J in the eq. 19 weights of the MHE's measurement, as a fraction of J_th: residual RMS
+# below the fault-free level (model error + noise) carries no fault information (see
+# MheMeasurementFusion and docs/papers-notes.md "Wan2018: slow drift").
+AIR_WEIGHT_FLOOR_RATIO = 0.25
+
+
+class MheMeasurementFusion:
+    """The fused measurement of one redundant set that the air-data MHE receives (Wan2018 eq. 19).
+
+    Wan2018 weights each healthy instance by ``1/J^2`` of its model residual.  The model is
+    driven by this fused value, so for a fault slower than the wind-rate bound u_w (which the
+    wind states absorb) the loop has positive feedback: the instance the model happens to follow
+    gets the smallest J, the highest weight, and pulls the model further (a slow CAS drift then
+    captures the model and the healthy instances are isolated instead).  Two changes close
+    the loop on independent information:
+
+    - J in the weights is ``max(J_model, J_consensus)``: with >= 3 healthy instances the
+      residual against the set's median (:func:`consensus_residuals`) is independent of the
+      model, so an instance departing from the others loses weight even if the model follows it;
+      with fewer healthy instances only J_model is used (two instances cannot isolate each
+      other; a fault fast enough to exceed u_w makes J_model of the faulty one rise first);
+    - J is floored at ``floor_ratio * J_th`` (not at the sensor noise): healthy instances share
+      the weight equally instead of by the noise of their fault-free residuals.
+
+    Detection stays on the model residuals (eq. 17) in the set monitor; the fused value is what
+    the instances judged healthy (not latched out, J_model <= J_th) agree on.
+    """
+
+    def __init__(self, n: int, threshold: float, n_eval: int, floor_ratio: float) -> None:
+        self.threshold = threshold
+        self.floor = floor_ratio * threshold
+        self._rms = [ResidualRms(RmsWindowParams(rms_window_n=n_eval)) for _ in range(n)]
+        self._j = [0.0] * n
+
+    def step(self, measured: list[float], usable: list[bool], status: SetStatus
+             ) -> tuple[float | None, tuple[float, ...]]:
+        """Fused value (None when no instance is healthy) and the weights used."""
+        healthy = [u and not f for u, f in zip(usable, status.faulty, strict=True)]
+        if sum(healthy) >= 3:
+            _, r = consensus_residuals(measured, usable, healthy)
+            for i, ri in enumerate(r):
+                if ri == ri:
+                    self._j[i] = self._rms[i].update(ri)
+        else:
+            self._j = [0.0] * len(measured)
+        j_eff = [max(a, b) for a, b in zip(status.rms, self._j, strict=True)]
+        w = adaptive_weights(j_eff, healthy, self.threshold, self.floor)
+        if not any(w):
+            return None, tuple(w)
+        return sum(wi * x for wi, x in zip(w, measured, strict=True) if wi), tuple(w)
 
 
 def set_params(name: str, cfg: SetConfig, dt_s: float) -> SetMonitorParams:
@@ -105,6 +158,10 @@ class VehiclePipeline:
         self._cas_pred = math.nan
         self._last_sets: list[SetStatus] = []
         self._airdata_estimate: Estimate | None = None
+        self._aoa_fusion = MheMeasurementFusion(n_aoa, cfg.fdi.aoa.threshold, cfg.fdi.aoa.n_eval,
+                                                AIR_WEIGHT_FLOOR_RATIO)
+        self._cas_fusion = MheMeasurementFusion(n_cas, cfg.fdi.cas.threshold, cfg.fdi.cas.n_eval,
+                                                AIR_WEIGHT_FLOOR_RATIO)
         self.frames = 0
         self.active: dict[ChannelId, AlarmEvent] = {}
 
@@ -158,12 +215,17 @@ class VehiclePipeline:
                                         cas_valid[: self.cas_set.n], cas_ref)
         out.events += ev_a + ev_c
         if self.airdata is not None:
-            # Table I / sec. V-C: a lost set (no healthy instance) removes its row of C.
-            aoa_f = s_aoa.fused if any(not f for f in s_aoa.faulty) else None
-            cas_f = s_cas.fused if any(not f for f in s_cas.faulty) else None
-            self.airdata.set_fused_measurements(
-                aoa_f if aoa_f is not None and math.isfinite(aoa_f) else None,
-                cas_f if cas_f is not None and math.isfinite(cas_f) else None)
+            # eq. 19 on independent weights (MheMeasurementFusion); Table I / sec. V-C: a lost
+            # set (no healthy instance) removes its row of C.
+            aoa_f, w_a = self._aoa_fusion.step(list(s_aoa.measured),
+                                               aoa_valid.tolist()[: self.aoa_set.n], s_aoa)
+            cas_f, w_c = self._cas_fusion.step(list(s_cas.measured),
+                                               cas_valid.tolist()[: self.cas_set.n], s_cas)
+            s_aoa = dataclasses.replace(s_aoa, fused=math.nan if aoa_f is None else aoa_f,
+                                        weights=w_a)
+            s_cas = dataclasses.replace(s_cas, fused=math.nan if cas_f is None else cas_f,
+                                        weights=w_c)
+            self.airdata.set_fused_measurements(aoa_f, cas_f)
             e = self.airdata.step(frame)
             out.estimates.append(e)
             self._airdata_estimate = e

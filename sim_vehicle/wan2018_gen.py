@@ -7,6 +7,12 @@ Wan2018 Table II. Deterministic for a seed.
 
 Wan2018 gives ranges, not a distribution; we draw uniformly within each range and a random
 sign. Flight conditions are given as CAS; the initial TAS is converted at the drawn altitude.
+
+Run counts follow Wan2018 sec. VI-B exactly in proportion: 140 of 249 runs fault-free, and the
+109 faulty runs split over the output configurations of Table I as 47 / 22 / 25 / 15:
+I (some but not all AoA and/or CAS instances faulty), II (all three AoA vanes faulty, plus 0-2
+CAS), III (all three CAS probes, plus 0-2 AoA), IV (all six). Counts are rounded for other
+``n_runs`` and the categories are shuffled over the runs.
 """
 
 from __future__ import annotations
@@ -46,6 +52,7 @@ class Wan2018Ranges:
     aoa_noise_deg: tuple[float, float] = (1.0, 2.0)
     cas_noise_kts: tuple[float, float] = (10.0, 20.0)
     fault_free_fraction: float = 140.0 / 249.0  # 140 fault-free of 249 runs
+    category_counts: tuple[int, int, int, int] = (47, 22, 25, 15)  # Table I I-IV, faulty runs
 
 
 FAMILIES = ("oscillation", "jam", "bias", "runaway", "nrz", "noise")
@@ -81,10 +88,49 @@ def _fault(rng: np.random.Generator, r: Wan2018Ranges, channel: str, t0: float) 
     return FaultSpec(channel, fam, round(t0, 2), None, p)
 
 
+CATEGORIES = ("none", "I", "II", "III", "IV")
+
+
+def category_plan(n_runs: int, r: Wan2018Ranges) -> list[str]:
+    """Category per run before shuffling: rounded Wan2018 proportions, summing to ``n_runs``."""
+    n_free = int(round(n_runs * r.fault_free_fraction))
+    n_faulty = n_runs - n_free
+    tot = sum(r.category_counts)
+    exact = [n_faulty * c / tot for c in r.category_counts]
+    counts = [int(np.floor(x)) for x in exact]
+    short = n_faulty - sum(counts)
+    for k in np.argsort([c - x for c, x in zip(counts, exact, strict=True)])[:short]:
+        counts[int(k)] += 1
+    plan = ["none"] * n_free
+    for name, c in zip(CATEGORIES[1:], counts, strict=True):
+        plan += [name] * c
+    return plan
+
+
+def _category_channels(rng: np.random.Generator, cat: str) -> list[str]:
+    """Faulty channels of a run of Table I category ``cat``."""
+    aoa = [f"aoa{k}" for k in range(N_AIRDATA)]
+    cas = [f"cas{k}" for k in range(N_AIRDATA)]
+    if cat == "IV":
+        return aoa + cas
+    if cat in ("II", "III"):
+        full, other = (aoa, cas) if cat == "II" else (cas, aoa)
+        k = int(rng.integers(0, N_AIRDATA))  # 0-2 instances of the other set
+        return full + [str(c) for c in rng.choice(other, size=k, replace=False)]
+    # I: 1-2 of one set, or 1-2 of each, never a whole set
+    n_a, n_c = 0, 0
+    while n_a + n_c == 0:
+        n_a, n_c = int(rng.integers(0, N_AIRDATA)), int(rng.integers(0, N_AIRDATA))
+    return ([str(c) for c in rng.choice(aoa, size=n_a, replace=False)]
+            + [str(c) for c in rng.choice(cas, size=n_c, replace=False)])
+
+
 def generate(n_runs: int, seed: int = 0, *, ranges: Wan2018Ranges = Wan2018Ranges(),
              airframe: str = "transport") -> list[Scenario]:
-    """``n_runs`` random scenarios, deterministic for ``seed``."""
+    """``n_runs`` random scenarios, deterministic for ``seed`` (see :func:`category_plan`)."""
     rng = np.random.default_rng(np.random.SeedSequence([seed, 2018]))
+    plan = category_plan(n_runs, ranges)
+    rng.shuffle(plan)
     out = []
     for i in range(n_runs):
         r = ranges
@@ -99,18 +145,16 @@ def generate(n_runs: int, seed: int = 0, *, ranges: Wan2018Ranges = Wan2018Range
                         turbulence_sigma_mps=float(round(rng.uniform(0.5, 3.54), 2)),
                         shear_start_s=float(round(rng.uniform(10.0, duration / 2), 1)))
         faults: tuple[FaultSpec, ...] = ()
-        if rng.random() >= r.fault_free_fraction:
-            n_f = int(rng.integers(1, 4))
-            pool = [f"aoa{k}" for k in range(N_AIRDATA)] + [f"cas{k}" for k in range(N_AIRDATA)]
-            chans = rng.choice(pool, size=n_f, replace=False)
+        if plan[i] != "none":
+            chans = _category_channels(rng, plan[i])
             faults = tuple(
                 _fault(rng, r, str(c), float(rng.uniform(10.0, 0.6 * duration)))
                 for c in sorted(chans)
             )
         out.append(Scenario(
             name=f"wan2018_s{seed}_r{i:04d}",
-            description=f"Wan2018 Table II parametric run {i} (seed {seed}), "
-                        f"{len(faults)} faulty air-data sensor(s)",
+            description=f"Wan2018 Table II parametric run {i} (seed {seed}), category "
+                        f"{plan[i]}, {len(faults)} faulty air-data sensor(s)",
             airframe=airframe,
             duration_s=duration,
             seed=int(rng.integers(2**31)),

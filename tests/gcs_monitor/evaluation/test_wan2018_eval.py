@@ -1,0 +1,122 @@
+"""Wan2018 evaluation (gcs_monitor.evaluation.wan2018) and the slow-drift fix of the MHE's
+fused measurement (gcs_monitor.pipeline.MheMeasurementFusion)."""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gcs_monitor.config import MonitorConfig
+from gcs_monitor.core.types import ChannelId
+from gcs_monitor.evaluation import wan2018
+from gcs_monitor.fdi.events import AlarmKind, AlarmState, SetStatus
+from gcs_monitor.pipeline import MheMeasurementFusion
+from sim_vehicle.wan2018_gen import Wan2018Ranges, category_plan, generate
+
+
+def _status(rms: tuple[float, ...], faulty: tuple[bool, ...] = (False, False, False)) -> SetStatus:
+    return SetStatus(name="cas", t_us=0, measured=(0.0,) * 3, reference=0.0, fused=0.0,
+                     weights=(0.0,) * 3, rms=rms, threshold=2.0, faulty=faulty,
+                     configuration="fused 3/3")
+
+
+def test_fusion_consensus_weight_breaks_the_model_following_loop() -> None:
+    # Instance 0 drifts away from the other two while the model follows it (J_model of 0 small,
+    # of 1 and 2 larger): eq. 19 on J_model alone would give 0 the largest weight.
+    fus = MheMeasurementFusion(3, threshold=2.0, n_eval=10, floor_ratio=0.25)
+    fused = None
+    for _ in range(10):
+        fused, w = fus.step([101.5, 100.0, 100.0], [True] * 3, _status((0.2, 1.4, 1.4)))
+    # J_cons of 0 is 1.5 -> J_eff = (1.5, 1.4, 1.4): 0 gets less weight than each healthy one
+    assert w[0] < w[1] and w[1] == pytest.approx(w[2])
+    assert fused is not None and fused < 100.5
+
+
+def test_fusion_equal_weights_below_floor_and_lost_set() -> None:
+    fus = MheMeasurementFusion(3, threshold=2.0, n_eval=10, floor_ratio=0.25)
+    fused, w = fus.step([1.0, 2.0, 3.0], [True] * 3, _status((0.1, 0.3, 0.4)))
+    # consensus J of 0 and 2 after one sample: sqrt(1/10) = 0.32 < floor 0.5 -> equal weights
+    assert w == pytest.approx((1 / 3, 1 / 3, 1 / 3))
+    assert fused == pytest.approx(2.0)
+    fused, w = fus.step([1.0, 2.0, 3.0], [True] * 3, _status((0.1, 0.3, 0.4), (True,) * 3))
+    assert fused is None and not any(w)
+
+
+def test_generator_category_counts_follow_wan2018() -> None:
+    assert Counter(category_plan(249, Wan2018Ranges())) == {
+        "none": 140, "I": 47, "II": 22, "III": 25, "IV": 15}
+    scs = generate(40, 3)
+    for sc in scs:
+        cat = sc.description.split("category ")[1].split(",")[0]
+        ch = {f.channel for f in sc.faults}
+        aoa = {c for c in ch if c.startswith("aoa")}
+        cas = ch - aoa
+        assert (cat == "none") == (not ch)
+        if cat == "I":
+            assert 0 < len(ch) and len(aoa) < 3 and len(cas) < 3
+        if cat in ("II", "IV"):
+            assert len(aoa) == 3
+        if cat in ("III", "IV"):
+            assert len(cas) == 3
+
+
+def test_measured_noise_recovers_white_noise_on_a_ramp() -> None:
+    rng = np.random.default_rng(0)
+    x = np.linspace(0.0, 5.0, 5000) + rng.normal(0.0, 0.1, 5000)
+    assert wan2018.measured_noise(x) == pytest.approx(0.1, rel=0.05)
+
+
+def test_table3_aggregates_max_and_mean() -> None:
+    d2r, k2m = wan2018.UNITS["aoa"][1], wan2018.UNITS["cas"][1]
+    stats = [(False, {"aoa": (2 * d2r, 1 * d2r), "cas": (4 * k2m, 2 * k2m)}),
+             (False, {"aoa": (3 * d2r, 3 * d2r), "cas": (1 * k2m, 0 * k2m)})]
+    t3 = wan2018.table3(stats)
+    assert t3["fault-free"] == pytest.approx([3.0, 4.0, 2.0, 1.0])
+    assert all(math.isnan(x) for x in t3["faulty"])
+
+
+def test_experiments_registered() -> None:
+    assert {"wan2018_fig45", "wan2018_fig3", "wan2018_campaign",
+            "wan2018_onspeed"} <= set(wan2018.experiments())
+
+
+@pytest.mark.slow
+def test_demo_preset_alarms_exactly_the_faulty_instances() -> None:
+    """demo_airdata_faults (aoa1 bias, cas0 slow drift 0.5 kt/s, cas2 runaway -5 kt/s) through
+    the MAVLink path with the CMHE reference: exactly those three instances are raised."""
+    from gcs_monitor.estimators.airdata import AirDataEstimator
+    from gcs_monitor.monitor import Monitor
+    from sim_vehicle.run import iter_packets
+    from sim_vehicle.scenario import load_scenario
+
+    sc = load_scenario("demo_airdata_faults")
+    mon = Monitor(MonitorConfig(), estimators_for=lambda s: ([], AirDataEstimator()))
+    buf: list[bytes] = []
+    for _, p in iter_packets(sc):
+        buf.append(p)
+        if len(buf) >= 64:
+            mon.feed(b"".join(buf))
+            buf.clear()
+    mon.feed(b"".join(buf))
+    mon.finish()
+    raised = {e.channel for e in mon.events
+              if e.state is AlarmState.RAISED and e.kind is AlarmKind.SENSOR_FAULT}
+    assert raised == {ChannelId("aoa", 1), ChannelId("cas", 0), ChannelId("cas", 2)}
+
+
+@pytest.mark.slow
+def test_quick_campaign_metrics(tmp_path: Path) -> None:
+    md = wan2018.wan2018_campaign(tmp_path, 1, True)
+    assert "Table IV" in md and "Table III" in md
+    rows = (tmp_path / "wan2018_campaign_metrics.csv").read_text().splitlines()
+    assert len(rows) == 1 + 4  # (monitor, median_vote) x (aoa, cas)
+    for line in rows[1:]:
+        method, group, n_free, n_faulty, far, *_ = line.split(",")
+        assert int(n_free) + int(n_faulty) == 12
+        if method == "monitor":
+            assert float(far) == 0.0  # thresholds from fault-free calibration seeds
+    assert (tmp_path / "wan2018_campaign_delays.png").stat().st_size > 0
