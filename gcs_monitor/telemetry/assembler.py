@@ -177,6 +177,7 @@ class FrameAssembler:
         self._gps_base_t = NEVER_US
         # AoA vanes 0..2 then CAS 0..2 in one list each (one array per frame, four views)
         self._air_v = [math.nan] * (2 * N_AIR)
+        self._air_marked_us = NEVER_US  # newest air sample instant already marked air_new
         self._air_t = [NEVER_US] * (2 * N_AIR)
         self._air_new = False
         self._ssa = math.nan
@@ -444,29 +445,46 @@ class FrameAssembler:
         if not 0 <= i < N_AIR:
             self.stats.bad_value("AIRSPEED.id")
             return []
-        self._air_v[N_AIR + i] = v
-        self._air_t[N_AIR + i] = self._now_us
         self._ever_cas.add(i)
-        self._air_new = True
+        self._set_air(N_AIR + i, self._now_us, v)  # untimed: stamped with its arrival time
         oat = m.temperature * ct.CDEGC_TO_K + ct.ZERO_C_K
         if ct.MIN_OAT_K <= oat <= ct.MAX_OAT_K:
             self._oat = oat
         return []
 
     def _set_aoa(self, i: int, t_us: int, aoa: float) -> None:
-        self._air_v[i] = aoa
-        self._air_t[i] = t_us
         self._ever_aoa.add(i)
-        self._air_new = True
+        self._set_air(i, t_us, aoa)
+
+    def _set_air(self, k: int, t_us: int, value: float) -> None:
+        """Store air-data value ``k`` (AoA 0..2, then CAS 0..2) sampled at ``t_us``.
+
+        Held frames at or after the sample instant get the value (its messages may arrive after
+        the IMU sample of the same instant). Exactly one frame per air sample carries
+        ``air_new``: the first held frame at or after the instant, or, when none is held (mode
+        "latest", or a sample newer than every frame), the next frame built. The air-data FDI
+        steps on ``air_new``, so a sample split over several messages is one step, not several.
+        """
+        self._air_v[k] = value
+        self._air_t[k] = t_us
+        first = None
         if self._pending:
+            vals, ages = ((lambda f: f.aoa_rad, lambda f: f.aoa_age_s) if k < N_AIR
+                          else (lambda f: f.cas_mps, lambda f: f.cas_age_s))
+            j = k if k < N_AIR else k - N_AIR
             for f in reversed(self._pending):
                 if f.t_us < t_us:
                     break
                 age = (f.t_us - t_us) * S_PER_US
-                if age < f.aoa_age_s[i]:
-                    f.aoa_rad[i] = aoa
-                    f.aoa_age_s[i] = age
-                    f.air_new = True
+                if age < ages(f)[j]:
+                    vals(f)[j] = value
+                    ages(f)[j] = age
+                first = f
+        if first is None:
+            self._air_new = True
+        elif t_us > self._air_marked_us:
+            first.air_new = True
+            self._air_marked_us = t_us
 
     def _aoa_ssa(self, m: Any) -> list[Frame]:
         k = ct.DEG_TO_RAD
