@@ -27,6 +27,7 @@ import math
 import os
 import shutil
 import socket
+import signal
 import subprocess
 import sys
 import tempfile
@@ -94,17 +95,30 @@ def _http_json(url: str, timeout_s: float = 2.0) -> Any:
 
 @contextlib.contextmanager
 def _process(cmd: list[str], **kw: Any) -> Iterator[subprocess.Popen[bytes]]:
-    """Start a process and always terminate (then kill) exactly that process."""
-    p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, **kw)
+    """Start a process in its own process group and always terminate (then kill) that group.
+
+    The ``rerun`` entry point is a Python wrapper that runs the native viewer as a child; ending
+    only the wrapper would leave the viewer serving (and spinning a core) after we return.
+    """
+    p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                         start_new_session=True, **kw)
+
+    def signal_group(sig: int) -> None:
+        try:
+            os.killpg(p.pid, sig)
+        except ProcessLookupError:
+            pass
+
     try:
         yield p
     finally:
-        p.terminate()
+        signal_group(signal.SIGTERM)
         try:
             p.wait(timeout=5.0)
         except subprocess.TimeoutExpired:
-            p.kill()
+            signal_group(signal.SIGKILL)
             p.wait(timeout=5.0)
+        signal_group(signal.SIGKILL)  # children that outlived the wrapper
 
 
 class _DevTools:
