@@ -1,0 +1,345 @@
+"""Campaign report: Markdown tables, CSV files and PNG plots from a :class:`CampaignResult`.
+
+Files written into the campaign's ``out_dir``:
+
+* ``report.md`` -- the Markdown returned as ``CampaignResult.markdown``;
+* ``metrics.csv`` -- Wan2018 Table IV rows, one per (method, group);
+* ``runs.csv`` -- one row per (run, method, group): scenario, faults, outcome, delay;
+* ``faults.csv`` -- one row per (run, injected fault, method): detected, delay;
+* ``example_series.csv`` -- per air sample of the example run (measured, reference, J, fused);
+* ``detection_delay.png``, ``rates_per_channel.png``, ``residual_rms_example.png``.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from gcs_monitor.core.units import DEG2RAD, KT2MPS
+from gcs_monitor.fdi.metrics import MetricsRow
+
+if TYPE_CHECKING:
+    from gcs_monitor.evaluation.harness import CampaignResult, RunRecord
+
+# display units per group (SI / factor = display value)
+UNIT = {"aoa": ("deg", DEG2RAD), "cas": ("kt", KT2MPS), "acc": ("m/s²", 1.0),
+        "gyro": ("deg/s", DEG2RAD)}
+METHOD_LABEL = {"monitor": "monitor", "median_vote": "median vote (baseline)",
+                "fixed_threshold": "fixed threshold (baseline)", "virtual": "MHE virtual sensor"}
+
+
+def _f(x: float, nd: int = 2) -> str:
+    return "-" if x is None or not math.isfinite(x) else f"{x:.{nd}f}"
+
+
+def _disp(group: str, si: float) -> float:
+    return si / UNIT.get(group, ("", 1.0))[1]
+
+
+def monitor_label(res: CampaignResult) -> str:
+    e = res.config.estimators
+    ref = f"MHE reference ({e.airdata})" if e.airdata != "none" else "consensus only"
+    imu = [n for n, on in (("imu_ts", e.imu_ts), ("imu_hosm", e.imu_hosm)) if on]
+    return f"monitor, {ref}" + (f", IMU: {'+'.join(imu)}" if imu else "")
+
+
+def metrics_markdown(res: CampaignResult) -> str:
+    lines = ["| method | group | fault-free runs | faulty runs | FAR [%] | MDR [%] | FIR [%] "
+             "| DetD max [s] | DetD mean [s] |", "|---|---|---|---|---|---|---|---|---|"]
+    for m, rows in res.tables.items():
+        label = monitor_label(res) if m == "monitor" else METHOD_LABEL[m]
+        for r in rows:
+            lines.append(f"| {label} | {r.group} | {r.n_fault_free} | {r.n_faulty} "
+                         f"| {_f(r.far_pct)} | {_f(r.mdr_pct)} | {_f(r.fir_pct)} "
+                         f"| {_f(r.delay_max_s)} | {_f(r.delay_mean_s)} |")
+    return "\n".join(lines)
+
+
+def per_kind_markdown(runs: Sequence[RunRecord]) -> str:
+    """Detection rate and delay per injected fault kind and method."""
+    acc: dict[tuple[str, str], list[tuple[bool, float]]] = {}
+    for r in runs:
+        for fr in r.fault_results:
+            acc.setdefault((fr.kind, fr.method), []).append((fr.detected, fr.delay_s))
+    methods = sorted({m for _, m in acc}, key=lambda m: list(METHOD_LABEL).index(m))
+    lines = ["| fault kind | faults | " + " | ".join(
+        f"{METHOD_LABEL[m]}: detected [%] / mean delay [s]" for m in methods) + " |",
+             "|---|---|" + "---|" * len(methods)]
+    for kind in sorted({k for k, _ in acc}):
+        cells = []
+        n = 0
+        for m in methods:
+            v = acc.get((kind, m), [])
+            n = len(v)
+            det = [d for ok, d in v if ok]
+            mean = _f(float(np.mean(det)) if det else math.nan)
+            cells.append(f"{100.0 * len(det) / n:.0f} / {mean}" if n else "-")
+        lines.append(f"| {kind} | {n} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def output_markdown(runs: Sequence[RunRecord]) -> str:
+    """Reconstruction RMSE and output error vs truth (mean over runs)."""
+    lines = []
+    recon: dict[str, list[float]] = {}
+    for r in runs:
+        for ch, v in r.recon_rmse.items():
+            if math.isfinite(v):
+                recon.setdefault(ch.rstrip("0123456789"), []).append(v)
+    if recon:
+        lines += ["Fault reconstruction (monitor): RMS over the fault interval of "
+                  "`(y_i - reference) - f_i`, f_i the applied fault (truth).", "",
+                  "| set | faulty channels | RMSE mean | RMSE max |", "|---|---|---|---|"]
+        for s, vals in sorted(recon.items()):
+            u = UNIT[s][0]
+            lines.append(f"| {s} | {len(vals)} | {_f(_disp(s, float(np.mean(vals))), 3)} {u} "
+                         f"| {_f(_disp(s, float(np.max(vals))), 3)} {u} |")
+        lines.append("")
+    out: dict[tuple[str, str], list[float]] = {}
+    lost: dict[tuple[str, str], int] = {}
+    for r in runs:
+        for m, d in r.output_rmse.items():
+            for s, v in d.items():
+                if math.isfinite(v):
+                    out.setdefault((m, s), []).append(v)
+                lost[(m, s)] = lost.get((m, s), 0) + r.output_lost.get(m, {}).get(s, 0)
+    if out:
+        lines += ["Output handed downstream vs truth, RMS over all air-data samples (all runs): "
+                  "adaptive weighted fusion (monitor), median selection (baselines), MHE "
+                  "estimate (virtual sensor).", "",
+                  "| output | set | runs | RMSE mean | RMSE max | samples without output |",
+                  "|---|---|---|---|---|---|"]
+        for (m, s), errs in sorted(out.items(), key=lambda kv: (kv[0][1], kv[0][0])):
+            u = UNIT[s][0]
+            lines.append(f"| {METHOD_LABEL[m]} | {s} | {len(errs)} "
+                         f"| {_f(_disp(s, float(np.mean(errs))), 3)} {u} "
+                         f"| {_f(_disp(s, float(np.max(errs))), 3)} {u} | {lost[(m, s)]} |")
+    return "\n".join(lines)
+
+
+def calibration_markdown(res: CampaignResult) -> str:
+    """Fault-free residual statistics against the thresholds in use."""
+    th = {"aoa": res.config.fdi.aoa.threshold, "cas": res.config.fdi.cas.threshold,
+          "acc": res.config.fdi.acc.threshold, "gyro": res.config.fdi.gyro.threshold}
+    free = [r for r in res.runs if not r.faulty]
+    if not free:
+        return "No fault-free run in this campaign."
+    lines = ["| group | J_th in use | largest fault-free J | margin J_th / J | calibrate() "
+             "(rule max, k=1.5) |", "|---|---|---|---|---|"]
+    for g in ("aoa", "cas", "acc", "gyro"):
+        js = [r.j_max[g] for r in free if g in r.j_max]
+        if not js:
+            continue
+        u = UNIT[g][0]
+        jm = max(js)
+        cal = [r.j_calibrated[g] for r in free if g in r.j_calibrated]
+        c = f"{_disp(g, max(cal)):.3g} {u}" if cal else "-"
+        lines.append(f"| {g} | {_disp(g, th[g]):.3g} {u} | {_disp(g, jm):.3g} {u} "
+                     f"| {th[g] / jm if jm > 0 else math.inf:.2f} | {c} |")
+    return "\n".join(lines)
+
+
+def _write_csvs(res: CampaignResult) -> list[Path]:
+    out = res.out_dir
+    files = []
+    p = out / "metrics.csv"
+    with open(p, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["method", "group", "n_fault_free", "n_faulty", "far_pct", "mdr_pct",
+                    "fir_pct", "delay_max_s", "delay_mean_s"])
+        for m, rows in res.tables.items():
+            for row in rows:
+                w.writerow([m, row.group, row.n_fault_free, row.n_faulty, row.far_pct,
+                            row.mdr_pct, row.fir_pct, row.delay_max_s, row.delay_mean_s])
+    files.append(p)
+    p = out / "runs.csv"
+    with open(p, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["run", "name", "seed", "duration_s", "manoeuvre", "wind", "faults", "method",
+                    "group", "faulty_run", "false_alarm", "missed", "false_isolation",
+                    "delay_s", "raised", "wall_s"])
+        for r in res.runs:
+            fs = ";".join(f"{f.channel}:{f.kind}@{f.t_start_us * 1e-6:g}" for f in r.faults)
+            for m, d in r.outcomes.items():
+                for g, o in d.items():
+                    w.writerow([r.index, r.name, r.seed, r.duration_s, r.manoeuvre, r.wind, fs, m,
+                                g, int(o.faulty_run), int(o.false_alarm), int(o.missed),
+                                int(o.false_isolation), o.delay_s, r.raised.get(m, 0),
+                                round(r.wall_s, 3)])
+    files.append(p)
+    p = out / "faults.csv"
+    with open(p, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["run", "name", "channel", "kind", "t_start_s", "method", "detected",
+                    "delay_s", "recon_rmse_si"])
+        for r in res.runs:
+            starts = {str(f.channel): f.t_start_us * 1e-6 for f in r.faults}
+            for fr in r.fault_results:
+                w.writerow([r.index, r.name, fr.channel, fr.kind, starts[fr.channel], fr.method,
+                            int(fr.detected), fr.delay_s,
+                            r.recon_rmse.get(fr.channel, math.nan) if fr.method == "monitor"
+                            else ""])
+    files.append(p)
+    ex = next((r for r in res.runs if r.series is not None), None)
+    if ex is not None and ex.series is not None:
+        p = out / "example_series.csv"
+        s = ex.series
+        cols: list[tuple[str, np.ndarray]] = [("t_s", s["t_us"] * 1e-6)]
+        for k in sorted(s):
+            if k == "t_us":
+                continue
+            v = s[k] if s[k].ndim == 2 else s[k][:, None]
+            for j in range(v.shape[1]):
+                cols.append((k if v.shape[1] == 1 else f"{k}.{j}", v[:, j]))
+        np.savetxt(p, np.column_stack([c for _, c in cols]), delimiter=",",
+                   header=",".join(n for n, _ in cols), comments="", fmt="%.9g")
+        files.append(p)
+    return files
+
+
+def _plots(res: CampaignResult) -> list[Path]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out = res.out_dir
+    files = []
+    methods = list(res.tables)
+    # detection delay histogram per method
+    fig, ax = plt.subplots(figsize=(7, 4))
+    delays = {m: [fr.delay_s for r in res.runs for fr in r.fault_results
+                  if fr.method == m and fr.detected] for m in methods}
+    allv = [d for v in delays.values() for d in v]
+    if allv:
+        bins = np.linspace(0.0, max(max(allv), 1.0), 30).tolist()
+        for m in methods:
+            if delays[m]:
+                ax.hist(delays[m], bins=bins, alpha=0.5, label=METHOD_LABEL[m])
+        ax.legend()
+    ax.set_xlabel("detection delay [s]")
+    ax.set_ylabel("faults")
+    ax.set_title(f"{res.preset_set}: detection delay per injected fault")
+    fig.tight_layout()
+    p = out / "detection_delay.png"
+    fig.savefig(p, dpi=110)
+    plt.close(fig)
+    files.append(p)
+    # FAR / MDR / FIR per channel kind and method
+    groups = sorted({r.group for rows in res.tables.values() for r in rows
+                     if r.group in ("aoa", "cas")})
+    fig, axs = plt.subplots(1, 3, figsize=(11, 3.6), sharey=True)
+    width = 0.8 / max(len(methods), 1)
+    for ax, (attr, title) in zip(axs, (("far_pct", "false-alarm rate"),
+                                       ("mdr_pct", "missed-detection rate"),
+                                       ("fir_pct", "false-isolation rate")), strict=True):
+        for k, m in enumerate(methods):
+            rows = {r.group: r for r in res.tables[m]}
+            vals = [getattr(rows[g], attr) if g in rows else math.nan for g in groups]
+            ax.bar(np.arange(len(groups)) + k * width, np.nan_to_num(vals), width,
+                   label=METHOD_LABEL[m])
+        ax.set_xticks(np.arange(len(groups)) + width * (len(methods) - 1) / 2, groups)
+        ax.set_title(title)
+        ax.set_ylabel("%")
+    axs[0].legend(fontsize=7)
+    fig.tight_layout()
+    p = out / "rates_per_channel.png"
+    fig.savefig(p, dpi=110)
+    plt.close(fig)
+    files.append(p)
+    ex = next((r for r in res.runs if r.series is not None), None)
+    if ex is not None and ex.series is not None and "aoa.rms" in ex.series:
+        s = ex.series
+        t = s["t_us"] * 1e-6
+        fig, axs = plt.subplots(2, 2, figsize=(11, 6), sharex=True)
+        for col, g in enumerate(("aoa", "cas")):
+            u, scale = UNIT[g]
+            th = res.config.fdi.aoa.threshold if g == "aoa" else res.config.fdi.cas.threshold
+            ax = axs[0, col]
+            for i in range(s[f"{g}.measured"].shape[1]):
+                ax.plot(t, s[f"{g}.measured"][:, i] / scale, lw=0.7, label=f"{g}{i}")
+            ax.plot(t, s[f"{g}.true"] / scale, "k--", lw=0.8, label="true")
+            ax.set_ylabel(f"{g} [{u}]")
+            ax.legend(fontsize=7)
+            ax = axs[1, col]
+            for i in range(s[f"{g}.rms"].shape[1]):
+                ax.plot(t, s[f"{g}.rms"][:, i] / scale, lw=0.8, label=f"J {g}{i}")
+            ax.axhline(th / scale, color="r", ls=":", label="J_th")
+            for f in ex.faults:
+                if f.channel.kind == g:
+                    ax.axvline(f.t_start_us * 1e-6, color="gray", ls="--", lw=0.8)
+            ax.set_ylabel(f"residual RMS J [{u}]")
+            ax.set_xlabel("vehicle time [s]")
+            ax.legend(fontsize=7)
+        fs = ", ".join(f"{f.channel} {f.kind}" for f in ex.faults) or "fault-free"
+        fig.suptitle(f"{ex.name}: {fs} ({monitor_label(res)})", fontsize=9)
+        fig.tight_layout()
+        p = out / "residual_rms_example.png"
+        fig.savefig(p, dpi=110)
+        plt.close(fig)
+        files.append(p)
+    return files
+
+
+def write_report(res: CampaignResult, *, jobs: int = 1) -> tuple[str, list[Path]]:
+    """Write every file of the campaign; return the Markdown and the files written."""
+    files = _write_csvs(res) + _plots(res)
+    c = res.config
+    n_free = sum(1 for r in res.runs if not r.faulty)
+    run_s = [r.wall_s for r in res.runs]
+    veh_s = sum(r.duration_s for r in res.runs)
+    md = [
+        f"# Campaign `{res.preset_set}`: {res.n_runs} runs, seed {res.seed}",
+        "",
+        f"- command: `gcs-monitor evaluate --preset-set {res.preset_set} --runs {res.n_runs} "
+        f"--jobs {jobs} --seed {res.seed} --out {res.out_dir}`"
+        + ("" if c.estimators.airdata == "cmhe" and c.estimators.imu_ts else
+           " (with the configuration below)"),
+        f"- monitor: {monitor_label(res)}; J_th aoa {c.fdi.aoa.threshold / DEG2RAD:.3g} deg, "
+        f"cas {c.fdi.cas.threshold / KT2MPS:.3g} kt, n_D/N_eval {c.fdi.aoa.n_detect}/"
+        f"{c.fdi.aoa.n_eval}; baselines use the same J_th on |y_i - median| (median vote: "
+        f"{c.fdi.aoa.n_detect} consecutive samples, latched; fixed threshold: 1 sample)",
+        f"- runs: {len(res.runs)} ({n_free} fault-free, {len(res.runs) - n_free} faulty), "
+        f"{veh_s:.0f} s of flight; wall {res.wall_s:.0f} s with {jobs} job(s) "
+        f"(mean {float(np.mean(run_s)) if run_s else math.nan:.1f} s per run)",
+        "",
+        "## Wan2018 Table IV metrics",
+        "",
+        metrics_markdown(res),
+        "",
+        "FAR over fault-free runs; MDR/FIR over runs with a fault in that group; delay from "
+        "fault start to the first correct RAISED (largest over the run's faulty channels). "
+        "Link and SET_LOST alarms are not counted.",
+        "",
+        "## Per fault kind",
+        "",
+        per_kind_markdown(res.runs),
+        "",
+        "## Reconstruction and output error",
+        "",
+        output_markdown(res.runs),
+        "",
+        "## Fault-free residuals vs thresholds",
+        "",
+        calibration_markdown(res),
+        "",
+        "## Plots",
+        "",
+    ]
+    md += [f"![{p.stem}]({p.name})" for p in files if p.suffix == ".png"]
+    text = "\n".join(md) + "\n"
+    p = res.out_dir / "report.md"
+    p.write_text(text)
+    return text, [p] + files
+
+
+def metrics_rows_csv(rows: Sequence[MetricsRow]) -> list[dict[str, Any]]:
+    """Rows as dicts (for callers assembling their own tables)."""
+    return [{"group": r.group, "n_fault_free": r.n_fault_free, "n_faulty": r.n_faulty,
+             "far_pct": r.far_pct, "mdr_pct": r.mdr_pct, "fir_pct": r.fir_pct,
+             "delay_max_s": r.delay_max_s, "delay_mean_s": r.delay_mean_s} for r in rows]
