@@ -133,6 +133,11 @@ class Monitor:
                 est.reset()
             if pipe.airdata is not None:
                 pipe.airdata.reset()
+            # FDI windows, latches and the air-data predictions describe the old flight: a new
+            # pipeline with the same (reset) estimators and the same sinks starts them afresh.
+            pipe = v.pipeline = VehiclePipeline(v.sysid, self.cfg,
+                                                imu_estimators=pipe.imu_estimators,
+                                                airdata=pipe.airdata, sinks=pipe.sinks)
             # vehicle time restarted: without this no link check (and no LINK/reboot alarm)
             # would run until the new clock passed the old one
             v.next_link_check_us = 0
