@@ -43,6 +43,7 @@ SET_NOISE = {"aoa": 0.1 * DEG2RAD, "cas": 0.1, "acc": 0.05, "gyro": 0.05 * DEG2R
 SET_RUNAWAY_RATE = {"aoa": 1.0 * DEG2RAD, "cas": 2.0 * KT2MPS, "acc": 1.0, "gyro": 1.0 * DEG2RAD}
 AIR_DT_S = 0.05  # air-data sample interval (20 Hz, docs/telemetry.md)
 IMU_DT_S = 0.01
+IMU_WARMUP_US = 5_000_000  # IMU fault estimates are judged 5 s after an estimator (re)start
 # Floor on J in the eq. 19 weights of the MHE's measurement, as a fraction of J_th: residual RMS
 # below the fault-free level (model error + noise) carries no fault information (see
 # MheMeasurementFusion and docs/papers-notes.md "Wan2018: slow drift").
@@ -156,6 +157,7 @@ class VehiclePipeline:
         self._channels: dict[tuple[str, ChannelId], ChannelMonitor] = {}
         self._aoa_pred = math.nan
         self._cas_pred = math.nan
+        self._est_start_us: dict[str, int] = {}
         self._last_sets: list[SetStatus] = []
         self._airdata_estimate: Estimate | None = None
         self._aoa_fusion = MheMeasurementFusion(n_aoa, cfg.fdi.aoa.threshold, cfg.fdi.aoa.n_eval,
@@ -184,10 +186,16 @@ class VehiclePipeline:
         for est in self.imu_estimators:
             e = est.step(frame)
             out.estimates.append(e)
-            if not e.available:
+            if not e.available or not e.numerics_ok:
+                self._est_start_us.pop(e.name, None)  # (re)starts: converge again
                 continue
+            t0 = self._est_start_us.setdefault(e.name, frame.t_us)
+            # Filter convergence: fault estimates are not judged during the first
+            # IMU_WARMUP_US after an estimator (re)starts (its start-up transient is up to
+            # 10x its converged fault-free level; see docs/results.md, issue 4).
+            judged = frame.t_us - t0 >= IMU_WARMUP_US
             for ch, value in e.faults.items():
-                st, ev = self._channel(e.name, ch).step(frame.t_us, value, e.numerics_ok)
+                st, ev = self._channel(e.name, ch).step(frame.t_us, value, judged)
                 out.channels.append(st)
                 out.events += ev
         if frame.air_new:
