@@ -40,6 +40,7 @@ from typing import Protocol
 
 import numpy as np
 
+from gcs_monitor.core.optional import optional_module
 from gcs_monitor.core.types import Mat, Vec
 
 
@@ -508,19 +509,9 @@ class _Kernels(Protocol):
     def rti_solve(self, *args: object) -> tuple[bool, int]: ...
 
 
-_KERNEL: list[object] = []  # [] = not tried yet, [None] = numba unavailable, [module] = loaded
-
-
 def compiled_kernel() -> _Kernels | None:
     """The numba kernels module (``filters/_mhe_jit.py``), or None when numba is not installed."""
-    if not _KERNEL:
-        try:
-            from gcs_monitor.filters import _mhe_jit
-        except ImportError:  # pragma: no cover - numba missing
-            _KERNEL.append(None)
-        else:
-            _KERNEL.append(_mhe_jit)
-    return _KERNEL[0]  # type: ignore[return-value]
+    return optional_module("gcs_monitor.filters._mhe_jit")  # type: ignore[return-value]
 
 
 def _step_compiled(

@@ -44,6 +44,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from gcs_monitor.core.optional import optional_module
 from gcs_monitor.core.types import Mat, Vec
 from gcs_monitor.filters.covariance import cho_factor_lower, cho_solve_lower, symmetrise
 
@@ -319,16 +320,6 @@ class _Kernels(Protocol):
     def update(self, *args: object) -> bool: ...
 
 
-_KERNELS: list[object] = []  # [] = not tried yet, [None] = numba unavailable, [module] = loaded
-
-
 def _kernels() -> _Kernels | None:
     """The numba kernels module, imported on first use (None if numba is not installed)."""
-    if not _KERNELS:
-        try:
-            from gcs_monitor.filters import _otsekf_jit
-        except ImportError:  # pragma: no cover - numba missing
-            _KERNELS.append(None)
-        else:
-            _KERNELS.append(_otsekf_jit)
-    return _KERNELS[0]  # type: ignore[return-value]
+    return optional_module("gcs_monitor.filters._otsekf_jit")  # type: ignore[return-value]

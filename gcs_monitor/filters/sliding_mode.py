@@ -29,6 +29,7 @@ from typing import Protocol
 
 import numpy as np
 
+from gcs_monitor.core.optional import optional_module
 from gcs_monitor.core.types import Mat, Vec
 
 HOSM_ORDER = 3
@@ -110,16 +111,6 @@ class _Kernels(Protocol):
     def hosm_step(self, *args: object) -> None: ...
 
 
-_KERNELS: list[object] = []  # [] = not tried yet, [None] = numba unavailable, [module] = loaded
-
-
 def _kernels() -> _Kernels | None:
     """The numba kernel module, imported on first use (None if numba is not installed)."""
-    if not _KERNELS:
-        try:
-            from gcs_monitor.filters import _sliding_mode_jit
-        except ImportError:  # pragma: no cover - numba missing
-            _KERNELS.append(None)
-        else:
-            _KERNELS.append(_sliding_mode_jit)
-    return _KERNELS[0]  # type: ignore[return-value]
+    return optional_module("gcs_monitor.filters._sliding_mode_jit")  # type: ignore[return-value]

@@ -30,6 +30,7 @@ import numpy as np
 
 from gcs_monitor.core import constants as c
 from gcs_monitor.core.atmosphere import tas_from_cas
+from gcs_monitor.core.optional import optional_module
 from gcs_monitor.core.types import Mat, Vec
 
 N_X = 4  # [alpha, V_g, W_x, W_z]
@@ -266,16 +267,6 @@ class CompiledAirData(Protocol):
     def linearise_horizon(self, *args: object) -> None: ...
 
 
-_KERNELS: list[object] = []  # [] = not tried yet, [None] = numba unavailable, [module] = loaded
-
-
 def compiled_kernels() -> CompiledAirData | None:
     """The numba version of this model, imported on first use (None if numba is missing)."""
-    if not _KERNELS:
-        try:
-            from gcs_monitor.models import _airdata_jit
-        except ImportError:  # pragma: no cover - numba missing
-            _KERNELS.append(None)
-        else:
-            _KERNELS.append(_airdata_jit)
-    return _KERNELS[0]  # type: ignore[return-value]
+    return optional_module("gcs_monitor.models._airdata_jit")  # type: ignore[return-value]

@@ -23,6 +23,7 @@ from typing import Protocol
 
 import numpy as np
 
+from gcs_monitor.core.optional import optional_module
 from gcs_monitor.core.types import Mat, Vec
 
 N_STATE = 6
@@ -246,16 +247,6 @@ class CompiledBodyGs(Protocol):
     def prediction(self, *args: object) -> None: ...
 
 
-_KERNELS: list[object] = []  # [] = not tried yet, [None] = numba unavailable, [module] = loaded
-
-
 def compiled_kernels() -> CompiledBodyGs | None:
     """The numba versions of this model, imported on first use (None if numba is missing)."""
-    if not _KERNELS:
-        try:
-            from gcs_monitor.models import _kinematics_body_jit
-        except ImportError:  # pragma: no cover - numba missing
-            _KERNELS.append(None)
-        else:
-            _KERNELS.append(_kinematics_body_jit)
-    return _KERNELS[0]  # type: ignore[return-value]
+    return optional_module("gcs_monitor.models._kinematics_body_jit")  # type: ignore[return-value]
