@@ -256,7 +256,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     if args.preset_set:
         from gcs_monitor.evaluation.harness import run_campaign
 
-        res = run_campaign(args.preset_set, args.runs, args.jobs, args.out, seed=args.seed)
+        res = run_campaign(args.preset_set, args.runs, args.jobs, args.out, seed=args.seed,
+                           config=load_config(args.config) if args.config else None)
         print(res.markdown)
         return 0
     experiments = registry.experiments()
@@ -305,6 +306,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--seed", type=int, default=0)
     s.add_argument("--quick", action="store_true", help="a small, fast version")
     s.add_argument("--out", type=Path, default=Path("eval_out"))
+    s.add_argument("--config", type=Path, help="monitor TOML for --preset-set campaigns")
     s.set_defaults(func=cmd_evaluate)
     s = sub.add_parser("convert", help="convert real flight data (Zipline/OnSpeed/ALFA CSV) to .tlog")
     s.add_argument("inputs", nargs="+", type=Path)
