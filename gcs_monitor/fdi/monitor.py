@@ -317,6 +317,13 @@ class ChannelMonitor:
 
     def step(self, t_us: int, value: float, valid: bool) -> tuple[ChannelStatus, list[AlarmEvent]]:
         """Process one sample; an invalid or non-finite value holds J and the decision."""
+        events = self.update(t_us, value, valid)
+        status = ChannelStatus(self.channel, t_us, value, self._J, self.p.threshold,
+                               self._faulty, self.estimator)
+        return status, events
+
+    def update(self, t_us: int, value: float, valid: bool) -> list[AlarmEvent]:
+        """:meth:`step` without building the :class:`ChannelStatus` (when nobody reads it)."""
         th = self.p.threshold
         events: list[AlarmEvent] = []
         if valid and value == value and abs(value) != math.inf:
@@ -339,9 +346,7 @@ class ChannelMonitor:
                                               message=f"{ft.value} {mag:.4g}")
             elif was:
                 events = self._alarm.step(t_us, False, rms=self._J, threshold=th)
-        status = ChannelStatus(channel=self.channel, t_us=t_us, value=value, rms=self._J,
-                               threshold=th, faulty=self._faulty, estimator=self.estimator)
-        return status, events
+        return events
 
 
 def calibrate(

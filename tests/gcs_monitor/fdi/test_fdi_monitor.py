@@ -249,3 +249,29 @@ def test_step_cost_n3() -> None:
         print(f"step cost (reference={use_ref}): {1e6 * best:.2f} µs CPU")
         worst = max(worst, best)
     assert worst < 30e-6
+
+
+def test_channel_id_hash_is_cached_and_survives_pickling() -> None:
+    """ChannelId caches its hash; pickling rebuilds it, since string hashes are per process."""
+    import pickle
+
+    ch = ChannelId("acc", 0, "x")
+    assert hash(ch) == hash(("acc", 0, "x")) and ch == ChannelId("acc", 0, "x")
+    back = pickle.loads(pickle.dumps({ch: 1}))
+    assert back[ChannelId("acc", 0, "x")] == 1
+    assert ChannelId("acc", 0, "x") < ChannelId("acc", 0, "y")
+
+
+def test_channel_monitor_update_equals_step() -> None:
+    """update() is step() without the ChannelStatus: same alarm events, same state."""
+    ch = ChannelId("acc", 0, "x")
+    p = ChannelMonitorParams(threshold=0.3, noise_sigma=0.05, runaway_rate_per_s=1.0)
+    a = ChannelMonitor(ch, p, estimator="imu_ts")
+    b = ChannelMonitor(ch, p, estimator="imu_ts")
+    rng = np.random.default_rng(3)
+    x = rng.normal(size=2000) * 0.05
+    x[500:900] += 1.0
+    for k, v in enumerate(x):
+        st, ev_a = a.step(k * 10_000, float(v), k % 97 != 0)
+        ev_b = b.update(k * 10_000, float(v), k % 97 != 0)
+        assert ev_a == ev_b and st.rms == b._J and st.faulty == b._faulty
