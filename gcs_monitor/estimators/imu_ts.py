@@ -17,14 +17,17 @@ import numpy as np
 from gcs_monitor.core.atmosphere import tas_from_cas
 from gcs_monitor.core.types import ChannelId, Mat, Vec
 from gcs_monitor.estimators.base import Estimate
+from gcs_monitor.core.atmosphere import gravity_mps2
+from gcs_monitor.filters.ekf import Innovation
 from gcs_monitor.filters.two_stage import (
+    PackedTwoStage,
     TwoStageConfig,
     TwoStageNoise,
     TwoStageState,
     two_stage_init,
     two_stage_step,
 )
-from gcs_monitor.models.kinematics import AsKm, GsKm
+from gcs_monitor.models.kinematics import AsKm, GsKm, compiled_gs_km
 from gcs_monitor.telemetry.frame import Frame
 
 log = logging.getLogger(__name__)
@@ -127,6 +130,18 @@ class ImuTwoStageEstimator:
         self._state: TwoStageState | None = None
         self._u_prev: Vec | None = None
         self._t_prev_us = 0
+        # Compiled hot path (GS-KM, numba): the model kernels write F, G and the propagated
+        # x_bar into these work arrays and PackedTwoStage runs the filter step in one call; the
+        # same equations and operations as two_stage_step (tests/.../test_imu_ts.py).
+        self._kin = compiled_gs_km() if self.cfg.model == "gs" and self._fcfg.compiled else None
+        self._packed: PackedTwoStage | None = None
+        if self._kin is not None and PackedTwoStage.available():
+            self._packed = PackedTwoStage(6, 6, 6, self._fcfg.window_n)
+            self._F = np.zeros((6, 6))
+            self._G = np.zeros((6, 6))
+            self._xb = np.zeros(6)
+            self._g_key = (math.nan, math.nan)
+            self._g = math.nan
 
     # -- protocol ------------------------------------------------------------------------------
     def reset(self) -> None:
@@ -149,7 +164,6 @@ class ImuTwoStageEstimator:
         u_m = np.concatenate([imu.acc_frd_mps2, imu.omega_frd_radps])
         if not np.all(np.isfinite(u_m)):
             return Estimate.unavailable(self.name, frame.t_us, "imu sample not finite")
-        model = self._model(frame)
         dt_s = (frame.t_us - self._t_prev_us) * 1e-6
         if self._state is None or self._u_prev is None or not 0.0 < dt_s <= cfg.max_dt_s:
             self._state = self._init_state(y)
@@ -158,7 +172,11 @@ class ImuTwoStageEstimator:
         s = self._state
         y = y.copy()
         y[5] = s.x[5] + _wrap_pi(y[5] - s.x[5])  # heading innovation across +-pi
-        new, innov = two_stage_step(s, model, self._u_prev, u_m, y, dt_s, self._noise, self._fcfg)
+        if self._packed is not None and s.k >= self._fcfg.n_iterated_steps:
+            new, innov = self._step_packed(s, frame, u_m, y, dt_s)
+        else:
+            new, innov = two_stage_step(s, self._model(frame), self._u_prev, u_m, y, dt_s,
+                                        self._noise, self._fcfg)
         self._u_prev, self._t_prev_us = u_m, frame.t_us
         if not innov.numerics_ok:
             log.warning("imu_ts: numerical failure at t_us=%d, filter reset", frame.t_us)
@@ -173,6 +191,19 @@ class ImuTwoStageEstimator:
         return self._estimate(frame.t_us, new, u_m, innov.nu, True)
 
     # -- helpers -------------------------------------------------------------------------------
+    def _step_packed(self, s: TwoStageState, frame: Frame, u_m: Vec, y: Vec,
+                     dt_s: float) -> tuple[TwoStageState, Innovation]:
+        """``two_stage_step(s, GsKm(lat, alt), ...)`` through the compiled GS-KM and filter."""
+        assert self._kin is not None and self._packed is not None and self._u_prev is not None
+        lat, alt = frame.lat_rad, frame.alt_msl_m
+        if (lat, alt) != self._g_key:  # GsKm.propagate's gravity, once per GPS position
+            self._g_key = (lat, alt)
+            self._g = gravity_mps2(lat, alt)
+        kin = self._kin
+        kin.jacobians(s.x, self._u_prev - s.f, lat, alt, self._F, self._G)  # Lu2016 note 1
+        kin.propagate(s.x_bar, self._u_prev, u_m, lat, alt, self._g, dt_s, self._xb)  # eq. 31
+        return self._packed.step(s, self._F, self._G, self._xb, y, dt_s, self._noise, self._fcfg)
+
     def _model(self, frame: Frame) -> GsKm | AsKm:
         if self.cfg.model == "gs":
             return GsKm(frame.lat_rad, frame.alt_msl_m)
