@@ -38,6 +38,16 @@ FAULT_CHANNELS = (
     ChannelId("gyro", 0, "p"), ChannelId("gyro", 0, "q"), ChannelId("gyro", 0, "r"),
 )  # fmt: skip
 
+_EULER_CHANNELS = (
+    ChannelId("euler", 0, "phi"), ChannelId("euler", 0, "theta"), ChannelId("euler", 0, "psi"),
+)  # fmt: skip
+RESIDUAL_CHANNELS_GS = (
+    ChannelId("gps_vel", 0, "n"), ChannelId("gps_vel", 0, "e"), ChannelId("gps_vel", 0, "d"),
+) + _EULER_CHANNELS  # fmt: skip
+RESIDUAL_CHANNELS_AS = (ChannelId("tas", 0), ChannelId("aoa", 0), ChannelId("ssa", 0)) + (
+    _EULER_CHANNELS
+)
+
 
 @dataclass(frozen=True, slots=True)
 class Lu2016Table1:
@@ -94,6 +104,11 @@ class ImuTsConfig:
     max_air_age_s: float = 0.5
     max_dt_s: float = 0.1
     imu_rate_hz: float = 100.0
+
+
+def _all_finite(a: Vec) -> bool:
+    """``np.all(np.isfinite(a))`` for a short vector, on Python floats (cheaper at n = 3-6)."""
+    return all(map(math.isfinite, a.ravel().tolist() if isinstance(a, np.ndarray) else a))
 
 
 def _wrap_pi(a: float) -> float:
@@ -162,7 +177,7 @@ class ImuTwoStageEstimator:
             what = "gps velocity" if cfg.model == "gs" else "air data (cas, aoa, ssa)"
             return Estimate.unavailable(self.name, frame.t_us, f"{what} missing or stale")
         u_m = np.concatenate([imu.acc_frd_mps2, imu.omega_frd_radps])
-        if not np.all(np.isfinite(u_m)):
+        if not _all_finite(u_m):
             return Estimate.unavailable(self.name, frame.t_us, "imu sample not finite")
         dt_s = (frame.t_us - self._t_prev_us) * 1e-6
         if self._state is None or self._u_prev is None or not 0.0 < dt_s <= cfg.max_dt_s:
@@ -214,7 +229,7 @@ class ImuTwoStageEstimator:
         eul = np.asarray(frame.euler_rad, dtype=np.float64)
         if self.cfg.model == "gs":
             v = frame.gps_vel_ned_mps
-            if v is None or frame.gps_age_s > cfg.max_gps_age_s or not np.all(np.isfinite(v)):
+            if v is None or frame.gps_age_s > cfg.max_gps_age_s or not _all_finite(v):
                 return None
             return np.concatenate([v, eul])
         cas, aoa, ssa = float(frame.cas_mps[0]), float(frame.aoa_rad[0]), frame.ssa_rad
@@ -277,19 +292,10 @@ class ImuTwoStageEstimator:
         u_hat = (u_m - s.f).tolist()  # Lu2016 eq. 60
         if self.cfg.model == "gs":
             states = {"vel_ned_mps": x[:3].copy(), "euler_rad": x[3:].copy()}
-            res_names: tuple[ChannelId, ...] = (
-                ChannelId("gps_vel", 0, "n"),
-                ChannelId("gps_vel", 0, "e"),
-                ChannelId("gps_vel", 0, "d"),
-            )
+            res_names = RESIDUAL_CHANNELS_GS
         else:
             states = {"vel_air_frd_mps": x[:3].copy(), "euler_rad": x[3:].copy()}
-            res_names = (ChannelId("tas", 0), ChannelId("aoa", 0), ChannelId("ssa", 0))
-        res_names = res_names + (
-            ChannelId("euler", 0, "phi"),
-            ChannelId("euler", 0, "theta"),
-            ChannelId("euler", 0, "psi"),
-        )
+            res_names = RESIDUAL_CHANNELS_AS
         nul = nu.tolist()
         return Estimate(
             name=self.name,
