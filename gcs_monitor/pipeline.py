@@ -26,6 +26,7 @@ from gcs_monitor.fdi.confirmation import ConfirmationParams
 from gcs_monitor.fdi.events import AlarmEvent, ChannelStatus, SetStatus
 from gcs_monitor.fdi.isolation import consensus_residuals
 from gcs_monitor.fdi.monitor import (
+    ChannelBank,
     ChannelMonitor,
     ChannelMonitorParams,
     RedundantSetMonitor,
@@ -174,8 +175,10 @@ class VehiclePipeline:
         # Per-channel ChannelStatus records in PipelineStep.channels; the Monitor turns them off
         # when neither a sink nor an on_step callback reads them (alarms are the same either way)
         self.channel_status = True
-        # estimator name -> (fault channel ids, their monitors) in the order of Estimate.faults
-        self._banks: dict[str, tuple[tuple[ChannelId, ...], list[ChannelMonitor]]] = {}
+        # estimator name -> (fault channel ids, their monitors, their ChannelBank) in the order
+        # of Estimate.faults
+        self._banks: dict[str, tuple[tuple[ChannelId, ...], list[ChannelMonitor],
+                                     ChannelBank | None]] = {}
 
     def _channel(self, estimator: str, ch: ChannelId) -> ChannelMonitor:
         key = (estimator, ch)
@@ -208,9 +211,16 @@ class VehiclePipeline:
             bank = self._banks.get(e.name)
             chans = tuple(faults)
             if bank is None or bank[0] != chans:  # same ids: identity compare, no hashing
-                bank = self._banks[e.name] = (chans, [self._channel(e.name, ch) for ch in chans])
+                mons = [self._channel(e.name, ch) for ch in chans]
+                # one numba call for all channels (None without numba: monitor by monitor)
+                bank = self._banks[e.name] = (chans, mons, ChannelBank.create(mons))
             t_us = frame.t_us
-            if self.channel_status:
+            if bank[2] is not None:
+                ev = bank[2].update(t_us, list(faults.values()), judged,
+                                    out.channels if self.channel_status else None)
+                if ev:
+                    out.events += ev
+            elif self.channel_status:
                 for mon, value in zip(bank[1], faults.values()):
                     st, ev = mon.step(t_us, value, judged)
                     out.channels.append(st)
