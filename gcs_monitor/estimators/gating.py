@@ -32,6 +32,7 @@ fault model is "the IMU is wrong" (Lu2016 eqs. 5-8, faults added to the measured
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import Enum
 
@@ -74,6 +75,20 @@ class GateConfig:
             raise ValueError("max_rejected_n must be >= 1")
 
 
+def intra_sample_excess_var(u_km2: Sequence[float], u_km1: Sequence[float],
+                            u_k: Sequence[float], floor: Sequence[float]) -> list[float] | None:
+    """:func:`intra_sample_input_var` on plain floats for the per-sample path; ``floor`` is
+    ``gate_sigma sqrt(6) sigma`` per channel. None when no channel exceeds its floor."""
+    out = None
+    for i, (a, b, c, f) in enumerate(zip(u_km2, u_km1, u_k, floor, strict=True)):
+        excess = abs(c - 2.0 * b + a) - f
+        if excess > 0.0:
+            if out is None:
+                out = [0.0] * len(floor)
+            out[i] = 0.25 * excess * excess
+    return out
+
+
 def intra_sample_input_var(u_km2: Vec, u_km1: Vec, u_k: Vec, sigma: Vec, gate_sigma: float
                            ) -> Vec:
     """Extra input variance of one step from the unresolved intra-sample input profile.
@@ -87,13 +102,14 @@ def intra_sample_input_var(u_km2: Vec, u_km1: Vec, u_k: Vec, sigma: Vec, gate_si
     sigma : (b,) 1-sigma input noise (SI)
     gate_sigma : noise gate
     """
-    d2 = np.abs(u_k - 2.0 * u_km1 + u_km2)
-    excess = np.maximum(d2 - gate_sigma * SQRT6 * sigma, 0.0)
-    return 0.25 * excess * excess
+    floor = (gate_sigma * SQRT6 * np.asarray(sigma, dtype=np.float64)).tolist()
+    v = intra_sample_excess_var(np.asarray(u_km2).tolist(), np.asarray(u_km1).tolist(),
+                                np.asarray(u_k).tolist(), floor)
+    return np.zeros(len(floor)) if v is None else np.array(v)
 
 
-def step_bound(s_diag: Vec, extra_input_var: Vec, dt_s: float, gate_sigma: float,
-               fault_step_max: float) -> float:
+def step_bound(s_diag: Sequence[float], extra_input_var: Sequence[float], dt_s: float,
+               gate_sigma: float, fault_step_max: float) -> float:
     """Largest one-step increment mismatch (norm) an IMU fault can explain.
 
     ``gate_sigma sqrt(2 tr S + dt^2 sum(extra_input_var)) + dt fault_step_max``: the increment
@@ -109,7 +125,7 @@ def step_bound(s_diag: Vec, extra_input_var: Vec, dt_s: float, gate_sigma: float
     extra_input_var : (3,) extra input variance of this step (:func:`intra_sample_input_var`)
     dt_s : sample interval (s)
     """
-    noise = 2.0 * float(np.sum(s_diag)) + dt_s * dt_s * float(np.sum(extra_input_var))
+    noise = 2.0 * math.fsum(s_diag) + dt_s * dt_s * math.fsum(extra_input_var)
     return gate_sigma * math.sqrt(noise) + dt_s * fault_step_max
 
 
@@ -137,8 +153,10 @@ class MeasurementStepGate:
         self.pending = False
         self.n_rejected = 0
 
-    def decide(self, nu: Vec, r_prev: Vec, bound: float) -> GateDecision:
-        inc = float(np.linalg.norm(nu - r_prev))
+    def decide(self, nu: Sequence[float], r_prev: Sequence[float], bound: float
+               ) -> GateDecision:
+        """``nu``, ``r_prev``: (3,) as in the class docstring (plain floats or arrays)."""
+        inc = math.hypot(*(a - b for a, b in zip(nu, r_prev, strict=True)))
         if not self.pending:
             if inc <= bound:
                 return GateDecision.ACCEPT
@@ -146,7 +164,7 @@ class MeasurementStepGate:
             self.n_rejected = 1
             self.last_step = inc
             return GateDecision.REJECT
-        if float(np.linalg.norm(nu)) <= bound:  # back on the state: it was a spike
+        if math.hypot(*nu) <= bound:  # back on the state: it was a spike
             self.reset()
             return GateDecision.ACCEPT
         if inc <= bound or self.n_rejected >= self.cfg.max_rejected_n:

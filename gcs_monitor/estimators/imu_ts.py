@@ -20,8 +20,9 @@ from gcs_monitor.estimators.base import Estimate
 from gcs_monitor.estimators.gating import (
     GateConfig,
     GateDecision,
+    SQRT6,
     MeasurementStepGate,
-    intra_sample_input_var,
+    intra_sample_excess_var,
     step_bound,
 )
 from gcs_monitor.filters.ekf import Innovation
@@ -148,13 +149,14 @@ class ImuTwoStageEstimator:
             window_n=self.cfg.filter.window_n,
             gate_sigma=self.cfg.filter.gate_sigma,
         )
-        self._sig_u = np.asarray(sig_u, dtype=np.float64)
+        self._d2_floor = [self.cfg.gate.gate_sigma * SQRT6 * x for x in sig_u]  # gating item 1
         # velocity rows 0-2 and Euler rows 3-5 are gated separately (gating.py item 2)
         self._gates = (MeasurementStepGate(self.cfg.gate), MeasurementStepGate(self.cfg.gate))
         self._state: TwoStageState | None = None
         self._u_prev: Vec | None = None
-        self._u_prev2: Vec | None = None
-        self._r_prev = np.zeros(6)  # previous measured minus estimated output (gates)
+        self._u_prev2: list[float] | None = None  # input at k-2 and k-1, plain floats
+        self._u_prev_l: list[float] = []
+        self._r_prev = [0.0] * 6  # previous measured minus estimated output (gates)
         self._t_prev_us = 0
         self._t_start_us = 0  # time of the last full (re)start
 
@@ -163,6 +165,7 @@ class ImuTwoStageEstimator:
         self._state = None
         self._u_prev = None
         self._u_prev2 = None
+        self._u_prev_l = []
         for g in self._gates:
             g.reset()
 
@@ -195,7 +198,8 @@ class ImuTwoStageEstimator:
                 why, warm = "start", cfg.start_warmup_s
                 self._t_start_us = frame.t_us
             self._u_prev, self._u_prev2, self._t_prev_us = u_m, None, frame.t_us
-            self._r_prev = np.zeros(6)
+            self._u_prev_l = u_m.tolist()
+            self._r_prev = [0.0] * 6
             for g in self._gates:
                 g.reset()
             return replace(self._estimate(frame.t_us, self._state, u_m, np.zeros(y.size), True),
@@ -204,17 +208,17 @@ class ImuTwoStageEstimator:
         y = y.copy()
         y[5] = s.x[5] + _wrap_pi(y[5] - s.x[5])  # heading innovation across +-pi
         noise, extra = self._noise, None
+        u_l = u_m.tolist()
         if cfg.gate.enabled and self._u_prev2 is not None:
             # gating.py item 1: unresolved intra-sample input profile is process noise (eq. 56)
-            extra = intra_sample_input_var(self._u_prev2, self._u_prev, u_m, self._sig_u,
-                                           cfg.gate.gate_sigma)
-            if extra.any():
+            extra = intra_sample_excess_var(self._u_prev2, self._u_prev_l, u_l, self._d2_floor)
+            if extra is not None:
                 noise = TwoStageNoise(Q=self._noise.Q + np.diag(extra), R=self._noise.R)
         new, innov = two_stage_step(s, model, self._u_prev, u_m, y, dt_s, noise, self._fcfg)
         why = ""
         if cfg.gate.enabled and cfg.model == "gs" and innov.numerics_ok:
             why, new, innov = self._gated(s, model, u_m, y, dt_s, noise, extra, new, innov)
-        self._u_prev2 = self._u_prev
+        self._u_prev2, self._u_prev_l = self._u_prev_l, u_l
         self._u_prev, self._t_prev_us = u_m, frame.t_us
         if not innov.numerics_ok:
             log.warning("imu_ts: numerical failure at t_us=%d, filter reset", frame.t_us)
@@ -226,7 +230,7 @@ class ImuTwoStageEstimator:
             shift[5] = _wrap_pi(new.x[5]) - new.x[5]
             new = replace(new, x_bar=new.x_bar + shift, x=new.x + shift)
         self._state = new
-        self._r_prev = y - new.x
+        self._r_prev = (y - new.x).tolist()
         est = self._estimate(frame.t_us, new, u_m, innov.nu, True)
         if why:
             return replace(est, reinit=why, reinit_warmup_s=cfg.reanchor_warmup_s)
@@ -296,19 +300,20 @@ class ImuTwoStageEstimator:
         return replace(fresh, f=s.f.copy(), Pf=s.Pf + n_steps * s.Qf, Qf=s.Qf.copy(), k=s.k)
 
     def _gated(self, s: TwoStageState, model: GsKm | AsKm, u_m: Vec, y: Vec, dt_s: float,
-               noise: TwoStageNoise, extra: Vec | None, new: TwoStageState, innov: Innovation
-               ) -> tuple[str, TwoStageState, Innovation]:
+               noise: TwoStageNoise, extra: list[float] | None, new: TwoStageState,
+               innov: Innovation) -> tuple[str, TwoStageState, Innovation]:
         """Velocity and attitude step gates (gating.py item 2) on a finished step; re-runs the
         step without the rejected rows only when a gate does not accept."""
         g = self.cfg.gate
-        ex = np.zeros(6) if extra is None else extra
+        ex = [0.0] * 6 if extra is None else extra
+        nu, sd, r = innov.nu.tolist(), innov.S_diag.tolist(), self._r_prev
         decisions = []
         for j, (gate, step_max) in enumerate(zip(
                 self._gates, (g.acc_fault_step_max_mps2, g.gyro_fault_step_max_radps),
                 strict=True)):
-            rows = slice(3 * j, 3 * j + 3)
-            bound = step_bound(innov.S_diag[rows], ex[rows], dt_s, g.gate_sigma, step_max)
-            decisions.append(gate.decide(innov.nu[rows], self._r_prev[rows], bound))
+            a, b = 3 * j, 3 * j + 3
+            bound = step_bound(sd[a:b], ex[a:b], dt_s, g.gate_sigma, step_max)
+            decisions.append(gate.decide(nu[a:b], r[a:b], bound))
         if all(d is GateDecision.ACCEPT for d in decisions):
             return "", new, innov
         # no information from the rejected rows this sample: the measurement is replaced by the

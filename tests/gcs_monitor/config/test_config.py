@@ -50,7 +50,8 @@ def test_imu_hosm_thresholds_are_their_own_keys(tmp_path):
         ("[fdi]\nbaro = {}\n", r"unknown key 'fdi.baro'"),
         ("x = [", r"not valid TOML"),
         ("[fdi.gyro_hosm]\nthreshold_mps2 = 0.5\n", r"given as 'threshold_degps'"),
-        ("[fdi.acc_hosm]\nthreshold_mps2 = -1\n", r"'fdi.acc_hosm.threshold_mps2' must be a positive"),
+        ("[fdi.acc_hosm]\nthreshold_mps2 = -1\n",
+         r"'fdi.acc_hosm.threshold_mps2' must be a positive"),
         ("[fdi.acc_hosm]\nn_detect = 60\n", r"must not exceed n_eval"),
     ],
 )
