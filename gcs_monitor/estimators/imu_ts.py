@@ -230,7 +230,9 @@ class ImuTwoStageEstimator:
             shift[5] = _wrap_pi(new.x[5]) - new.x[5]
             new = replace(new, x_bar=new.x_bar + shift, x=new.x + shift)
         self._state = new
-        self._r_prev = (y - new.x).tolist()
+        r = (y - new.x).tolist()
+        r[5] = _wrap_pi(r[5])  # y[5] was unwrapped against the previous state, new.x may wrap
+        self._r_prev = r
         est = self._estimate(frame.t_us, new, u_m, innov.nu, True)
         if why:
             return replace(est, reinit=why, reinit_warmup_s=cfg.reanchor_warmup_s)

@@ -123,3 +123,14 @@ def test_gate_lets_the_lu2016_table2_faults_through() -> None:
     assert [w for w in why if w] == ["start"]  # no sample gated: faults are not glitches
     late = (run.t_s > FAULT_START_S + 2.0)
     np.testing.assert_allclose(f_hat[late, 0].mean(), 3.0, atol=0.05)  # the 3 m/s^2 bias
+
+
+def test_heading_wrap_is_not_an_attitude_step() -> None:
+    # the default synthetic run starts near psi = +pi and wraps (tests/helpers/imu_synth.py)
+    run = make_run(np.random.default_rng(2), duration_s=20.0, faults=False)
+    psi = np.array([fr.euler_rad[2] for fr in run.frames])
+    assert np.any(np.abs(np.diff(psi)) > math.pi)  # the measured heading does wrap
+    est = ImuTwoStageEstimator(ImuTsConfig())
+    for fr in run.frames:
+        est.step(fr)
+        assert not est._gates[1].pending  # never a rejected attitude sample
