@@ -3,8 +3,21 @@
 Chain per Frame (Atmaca2025 Fig. 1): the approximate body-frame ground-speed model (eqs. 9-14,
 ``models/kinematics_body.py``) with the current fault estimates, the optimal two-stage EKF
 (eqs. 20-42, ``filters/otsekf.py``) whose bias stage estimates the state drift ``mu`` (eq. 29),
-the Levant differentiator of ``mu`` (eqs. 47-50, ``filters/sliding_mode.py``) and the drift-rate to
-fault mapping (eq. 51, :func:`drift_rate_to_fault`).
+the Levant differentiator (eqs. 47-50, ``filters/sliding_mode.py``) and the drift-rate to fault
+mapping (eq. 51, :func:`drift_rate_to_fault`).
+
+What is differentiated, and how the derivative becomes the fault (``mapping="exact"``, default).
+Eqs. 9-14 contain the fault estimates, so the drift rate is
+``d mu / dt = A(x) f + M(x) f_hat`` (``fault_input_matrix``, ``fault_estimate_matrix``), not the
+``D f`` that eq. 51 (and the diagonal "flat" map) assume; that holds only once ``f_hat = f``.
+Differentiating ``mu`` and mapping with ``D`` closes a loop ``f_hat -> eqs. 9-14 -> mu -> HOSM ->
+f_hat`` through the off-diagonal ``sin phi`` terms of eqs. 12-14 (gain ``tan phi``), which in a
+30 deg coordinated turn oscillates at ~1 Hz (0.8 deg/s on f_q/f_r, 2.6 m/s^2 on f_Ay/f_Az, zero
+true fault; docs/papers-notes.md). The estimator therefore subtracts the drift that its own
+estimates cause, ``s_k = mu_k - sum dt M(x_hat_{k-1}) f_hat_{k-1}`` (exactly what the model of
+step k-1 -> k added), differentiates ``s`` (``d s / dt = A f`` whatever ``f_hat`` is) and
+solves ``A(x_hat) f_hat = z_1`` in closed form. ``mapping="flat"`` / ``"paper"`` differentiate
+``mu`` and divide by ``D`` / take ``z_1`` as it is (eq. 51 printed).
 
 How the drift enters the two-stage filter (not written out in Atmaca2025, see
 docs/papers-notes.md): ``mu`` is the model state minus the true state. The true state obeys the
@@ -14,7 +27,7 @@ in the state noise: ``Qx = Gamma Q Gamma^T + Q^mu``, ``Q^{x mu} = -Q^mu`` (the "
 process and fault noise" of eq. 36), and the bias-to-state matrix of eq. 37 is ``B = 0`` when the
 model is evaluated at the drift-corrected estimate (``propagate="corrected"``, default), or
 ``B = Phi - I`` when it is evaluated at the drifting ``x_bar`` as eq. 20 literally reads
-(``propagate="paper"``). In both cases ``d mu / dt = D f`` and the HOSM derivative is the fault.
+(``propagate="paper"``).
 """
 
 from __future__ import annotations
@@ -45,6 +58,7 @@ from gcs_monitor.models.kinematics_body import (
     body_gs_noise_matrix,
     compiled_kernels,
     drift_rate_to_fault,
+    known_drift_rate,
 )
 from gcs_monitor.telemetry.frame import Frame
 
@@ -100,7 +114,8 @@ class ImuHosmConfig:
     gate_sigma : innovation gate for the reported test ratio
     max_gps_age_s, max_att_age_s : older inputs make the estimate unavailable
     max_dt_s : a larger gap between frames resets the filter
-    mapping : drift-rate to fault mapping, ``"flat"`` or ``"paper"`` (eq. 51)
+    mapping : drift-rate to fault mapping, ``"exact"`` (default), ``"flat"`` or ``"paper"``
+        (eq. 51 printed); see the module docstring
     propagate : ``"corrected"`` or ``"paper"`` (see module docstring)
     compiled : run model, OTSEKF and HOSM through their numba kernels when numba is installed
         (same equations; ``False`` runs the numpy references)
@@ -117,7 +132,7 @@ class ImuHosmConfig:
     max_gps_age_s: float = 0.5
     max_att_age_s: float = 0.1
     max_dt_s: float = 0.1
-    mapping: str = "flat"
+    mapping: str = "exact"
     propagate: str = "corrected"
     compiled: bool = True
 
@@ -169,8 +184,11 @@ class ImuHosmEstimator:
         )
         self._h_buf: Vec = np.zeros(ns)
         self._H_buf: Mat = np.zeros((ns, ns))
-        if self.cfg.mapping not in ("flat", "paper"):
-            raise ValueError(f"mapping must be 'flat' or 'paper', got {self.cfg.mapping!r}")
+        self._sig_buf: Vec = np.zeros(ns)
+        if self.cfg.mapping not in ("exact", "flat", "paper"):
+            raise ValueError(
+                f"mapping must be 'exact', 'flat' or 'paper', got {self.cfg.mapping!r}"
+            )
         if self.cfg.propagate not in ("corrected", "paper"):
             raise ValueError(
                 f"propagate must be 'corrected' or 'paper', got {self.cfg.propagate!r}"
@@ -181,6 +199,7 @@ class ImuHosmEstimator:
         self._filt: OtsekfState | None = None
         self._hosm: HosmState | None = None
         self._f_hat: Vec = np.zeros(N_STATE)
+        self._drift_known: Vec = np.zeros(N_STATE)
         self._t_prev_us: int | None = None
 
     # ------------------------------------------------------------------ helpers
@@ -193,6 +212,7 @@ class ImuHosmEstimator:
         self._filt = otsekf_init(x0, P0, np.zeros(N_STATE), np.zeros((N_STATE, N_STATE)))
         self._hosm = hosm_init(np.zeros(N_STATE))
         self._f_hat = np.zeros(N_STATE)
+        self._drift_known = np.zeros(N_STATE)
 
     def _prediction(self, s: OtsekfState, st: _Step) -> OtsekfPrediction:
         """Model quantities for k-1 -> k (Atmaca2025 eqs. 20, 25-27)."""
@@ -270,6 +290,7 @@ class ImuHosmEstimator:
             self._t_prev_us = frame.t_us
             return self._estimate(frame.t_us, st, np.zeros(N_STATE), np.zeros(N_STATE), True)
         assert self._hosm is not None
+        x_prev, fh_prev = self._filt.x_hat, self._f_hat  # what the model of k-1 -> k uses
         pred = self._prediction(self._filt, st)
         compiled = self._kb is not None
         filt, innov = otsekf_step(
@@ -288,10 +309,30 @@ class ImuHosmEstimator:
             self._init(st.y)
             return self._estimate(frame.t_us, st, np.zeros(N_STATE), np.zeros(N_STATE), False)
         self._filt = filt
-        # eqs. 47-50 on mu_{k|k}, then eq. 51
-        self._hosm = hosm_step(self._hosm, filt.mu, self._lambdas, st.dt_s, compiled=compiled)
-        self._f_hat = drift_rate_to_fault(self._hosm.z[1], filt.x_hat[3:], mapping=self.cfg.mapping)
+        self._f_hat = self._fault_update(x_prev, fh_prev, filt, st.dt_s, compiled)
         return self._estimate(frame.t_us, st, innov.nu, innov.test_ratio, True)
+
+    def _fault_update(
+        self, x_prev: Vec, fh_prev: Vec, filt: OtsekfState, dt_s: float, compiled: bool
+    ) -> Vec:
+        """Eqs. 47-50 on the drift and eq. 51 (``mapping``, see the module docstring)."""
+        assert self._hosm is not None
+        kb = self._kb
+        if self.cfg.mapping != "exact":
+            self._hosm = hosm_step(self._hosm, filt.mu, self._lambdas, dt_s, compiled=compiled)
+            return drift_rate_to_fault(self._hosm.z[1], filt.x_hat, mapping=self.cfg.mapping)
+        if kb is not None:
+            sig = self._sig_buf
+            kb.hosm_signal(x_prev, fh_prev, dt_s, filt.mu, self._drift_known, sig)
+            self._hosm = hosm_step(self._hosm, sig, self._lambdas, dt_s, compiled=True)
+            f_hat = np.empty(N_STATE)
+            kb.fault_from_drift_rate(self._hosm.z[1], filt.x_hat, f_hat)
+            return f_hat
+        # s = mu - int M(x) f_hat dt, with M f_hat at the state and estimates of step k-1 -> k
+        self._drift_known = self._drift_known + dt_s * known_drift_rate(x_prev, fh_prev)
+        sig = filt.mu - self._drift_known
+        self._hosm = hosm_step(self._hosm, sig, self._lambdas, dt_s, compiled=compiled)
+        return drift_rate_to_fault(self._hosm.z[1], filt.x_hat, mapping="exact")
 
     def _estimate(self, t_us: int, st: _Step, nu: Vec, ratio: Vec, ok: bool) -> Estimate:
         assert self._filt is not None

@@ -1,4 +1,4 @@
-"""Numba versions of the body-frame GS model (Atmaca2025 eqs. 9-19, 25-27).
+"""Numba versions of the body-frame GS model (Atmaca2025 eqs. 9-19, 25-27, 51).
 
 The same equations as ``kinematics_body.py`` (the reference, checked against finite
 differences) written for numba; imported lazily by ``kinematics_body.compiled_kernels`` and
@@ -232,3 +232,42 @@ def prediction(
             for j in range(6):
                 B[i, j] = Phi[i, j]
             B[i, i] -= 1.0
+
+
+@jit
+def hosm_signal(x_prev, f_hat_prev, dt, mu, known, sig):
+    """Accumulate the drift the fault estimates cause and form the HOSM input.
+
+    ``known += dt M(x_prev) f_hat_prev`` (``kinematics_body.known_drift_rate`` at the state and
+    estimates the model used from k-1 to k), then ``sig = mu - known`` (6,).
+    """
+    u, v, w, phi, theta = x_prev[0], x_prev[1], x_prev[2], x_prev[3], x_prev[4]
+    fp, fq, fr = f_hat_prev[3], f_hat_prev[4], f_hat_prev[5]
+    sph, cph = math.sin(phi), math.cos(phi)
+    sth, cth = math.sin(theta), math.cos(theta)
+    tth = sth / cth
+    known[0] += dt * (-v * fr + w * fq)
+    known[1] += dt * (u * fr - w * fp)
+    known[2] += dt * (-u * fq + v * fp)
+    known[3] += dt * (-(fq * sph + fr * cph) * tth)
+    known[4] += dt * (fr * sph)
+    known[5] += dt * (-fq * sph / cth)
+    for i in range(6):
+        sig[i] = mu[i] - known[i]
+
+
+@jit
+def fault_from_drift_rate(r, x, out):
+    """``A(x)^{-1} r`` into ``out`` (6,); see ``kinematics_body.fault_from_drift_rate``."""
+    u, v, w, phi, theta = x[0], x[1], x[2], x[3], x[4]
+    sph, cph = math.sin(phi), math.cos(phi)
+    sth, cth = math.sin(theta), math.cos(theta)
+    fp = r[3] - sth * r[5]
+    fq = cph * r[4] + sph * cth * r[5]
+    fr = -sph * r[4] + cph * cth * r[5]
+    out[0] = r[0] - (v * fr - w * fq)
+    out[1] = r[1] - (w * fp - u * fr)
+    out[2] = r[2] - (u * fq - v * fp)
+    out[3] = fp
+    out[4] = fq
+    out[5] = fr
