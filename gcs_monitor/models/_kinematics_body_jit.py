@@ -235,28 +235,6 @@ def prediction(
 
 
 @jit
-def hosm_signal(x_prev, f_hat_prev, dt, mu, known, sig):
-    """Accumulate the drift the fault estimates cause and form the HOSM input.
-
-    ``known += dt M(x_prev) f_hat_prev`` (``kinematics_body.known_drift_rate`` at the state and
-    estimates the model used from k-1 to k), then ``sig = mu - known`` (6,).
-    """
-    u, v, w, phi, theta = x_prev[0], x_prev[1], x_prev[2], x_prev[3], x_prev[4]
-    fp, fq, fr = f_hat_prev[3], f_hat_prev[4], f_hat_prev[5]
-    sph, cph = math.sin(phi), math.cos(phi)
-    sth, cth = math.sin(theta), math.cos(theta)
-    tth = sth / cth
-    known[0] += dt * (-v * fr + w * fq)
-    known[1] += dt * (u * fr - w * fp)
-    known[2] += dt * (-u * fq + v * fp)
-    known[3] += dt * (-(fq * sph + fr * cph) * tth)
-    known[4] += dt * (fr * sph)
-    known[5] += dt * (-fq * sph / cth)
-    for i in range(6):
-        sig[i] = mu[i] - known[i]
-
-
-@jit
 def fault_from_drift_rate(r, x, out):
     """``A(x)^{-1} r`` into ``out`` (6,); see ``kinematics_body.fault_from_drift_rate``."""
     u, v, w, phi, theta = x[0], x[1], x[2], x[3], x[4]
@@ -271,3 +249,15 @@ def fault_from_drift_rate(r, x, out):
     out[3] = fp
     out[4] = fq
     out[5] = fr
+
+
+@jit
+def fault_integral_step(x, mu, mu_prev, f_int):
+    """``f_int += A(x)^{-1} (mu - mu_prev)`` in place (``imu_hosm._fault_update``)."""
+    d = np.empty(6)
+    for i in range(6):
+        d[i] = mu[i] - mu_prev[i]
+    df = np.empty(6)
+    fault_from_drift_rate(d, x, df)
+    for i in range(6):
+        f_int[i] += df[i]

@@ -8,11 +8,13 @@ flat, non-rotating earth.
 
 The "approximate" model (eqs. 9-14) subtracts each fault estimate only where its sensor is *not*
 the one that drives the state's own drift: the accelerometer faults stay in ``A_m`` of eqs. 9-11,
-``p_m`` stays raw in eq. 12, ``q_m`` in eq. 13 and ``r_m`` in eq. 14. The predicted state drifts
-from the true one at ``d mu / dt = A(x) f + M(x) f_hat`` (:func:`fault_input_matrix`,
-:func:`fault_estimate_matrix`), which is ``D f`` (:func:`own_drift_gain`) only once
-``f_hat = f``. :func:`known_drift_rate` and :func:`fault_from_drift_rate` give the exact map from
-the HOSM derivative (eqs. 47-51) back to the fault for any ``f_hat`` (:func:`drift_rate_to_fault`).
+``p_m`` stays raw in eq. 12, ``q_m`` in eq. 13 and ``r_m`` in eq. 14. A fault moves the state
+derivative by ``A(x) f`` (:func:`fault_input_matrix`, ``-G`` of eq. 15) and the estimates by
+``M(x) f_hat`` (:func:`fault_estimate_matrix`), so the predicted state drifts at
+``d mu / dt = A f + M f_hat``; that is the diagonal ``D f`` (:func:`own_drift_gain`) only once
+``f_hat = f``. :func:`fault_from_drift_rate` solves ``A(x) f = d mu / dt`` in closed form (the
+map the estimator uses, with ``f_hat = 0`` in the filter as eq. 20 prints it);
+:func:`drift_rate_to_fault` also keeps the diagonal maps.
 
 Checked against physics: with exact inputs and ``f_hat = 0`` eqs. 9-14 equal the flat,
 non-rotating limit of the GS-KM (``kinematics.py``, Lu2016 eq. 11) rotated into body axes,
@@ -244,37 +246,6 @@ def fault_estimate_matrix(x: Vec) -> Mat:
     return M
 
 
-def known_drift_rate(x: Vec, f_hat: Vec) -> Vec:
-    """The drift rate that the fault estimates themselves cause, ``M(x) f_hat`` (eqs. 9-14).
-
-    Eqs. 9-14 are linear in ``f_hat``: this is ``f(x, u_m, f_hat) - f(x, u_m, 0)``.
-
-    Parameters
-    ----------
-    x : (6,) state, layout of :func:`body_gs_derivative`
-    f_hat : (6,) fault estimates, layout of ``u_m``
-
-    Returns
-    -------
-    (6,) state-derivative change (m/s^2 and rad/s)
-    """
-    u, v, w, phi, theta, _ = (float(a) for a in x)
-    fp, fq, fr = float(f_hat[3]), float(f_hat[4]), float(f_hat[5])
-    sph, cph = math.sin(phi), math.cos(phi)
-    sth, cth = math.sin(theta), math.cos(theta)
-    tth = sth / cth
-    return np.array(
-        [
-            -v * fr + w * fq,  # eq. 9
-            u * fr - w * fp,  # eq. 10
-            -u * fq + v * fp,  # eq. 11
-            -(fq * sph + fr * cph) * tth,  # eq. 12
-            fr * sph,  # eq. 13
-            -fq * sph / cth,  # eq. 14
-        ]
-    )
-
-
 def fault_from_drift_rate(drift_rate: Vec, x: Vec) -> Vec:
     """Solve ``A(x) f = drift_rate`` for the fault (:func:`fault_input_matrix`).
 
@@ -316,12 +287,13 @@ def fault_from_drift_rate(drift_rate: Vec, x: Vec) -> Vec:
 def drift_rate_to_fault(drift_rate: Vec, x: Vec, *, mapping: str = "exact") -> Vec:
     """IMU fault estimate from the HOSM derivative ``z_1`` (Atmaca2025 eqs. 46, 51).
 
-    ``mapping="exact"`` (default): ``z_1`` is the derivative of the drift *not explained by the
-    fault estimates*, ``s = mu - int M(x) f_hat dt`` (:func:`known_drift_rate`), whose rate is
-    ``A(x) f`` for any ``f_hat``; the fault is ``A(x)^{-1} z_1`` (:func:`fault_from_drift_rate`).
+    ``mapping="exact"`` (default): ``d mu / dt = A(x) f`` for a drift of the model with
+    ``f_hat = 0`` (eq. 20 as printed); the fault is ``A(x)^{-1} z_1`` (:func:`fault_from_drift_rate`).
+    (The estimator applies the same linear map to each drift increment before differentiating,
+    ``estimators/imu_hosm.py``, so that its ``z_1`` is the fault itself.)
 
-    ``mapping="flat"`` (``z_1 / D``) and ``"paper"`` (``z_1``, eq. 51 as printed) take ``z_1`` of
-    ``mu`` itself. Both assume ``d mu / dt = D f``, which holds only at ``f_hat = f``; otherwise
+    ``mapping="flat"`` (``z_1 / D``) and ``"paper"`` (``z_1``, eq. 51 as printed) are for the
+    drift of eqs. 9-14 *with* ``f_hat`` in the cross terms. Both assume ``d mu / dt = D f``, which holds only at ``f_hat = f``; otherwise
     ``d mu / dt = D f_hat + A (f - f_hat)``, so in a bank (``A`` not diagonal) the gyro estimates
     feed back through the ``sin phi`` terms of eqs. 13-14 with loop gain ``tan phi`` (and into
     eqs. 9-11 times the ground speed). Measured in a 30 deg coordinated turn: a sustained ~1 Hz
@@ -362,7 +334,7 @@ class CompiledBodyGs(Protocol):
     def noise_matrix(self, x: Vec, G: Mat) -> None: ...
     def measurement(self, x: Vec, h: Vec, H: Mat) -> None: ...
     def prediction(self, *args: object) -> None: ...
-    def hosm_signal(self, *args: object) -> None: ...
+    def fault_integral_step(self, x: Vec, mu: Vec, mu_prev: Vec, f_int: Vec) -> None: ...
     def fault_from_drift_rate(self, r: Vec, x: Vec, out: Vec) -> None: ...
 
 

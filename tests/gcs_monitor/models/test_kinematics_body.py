@@ -19,7 +19,6 @@ from gcs_monitor.models.kinematics_body import (
     fault_estimate_matrix,
     fault_from_drift_rate,
     fault_input_matrix,
-    known_drift_rate,
     own_drift_gain,
 )
 from tests.helpers.imu_synth_body import turn_truth_at, truth_at
@@ -110,13 +109,13 @@ def test_fault_matrices_are_model_jacobians_wrt_fault_and_estimate() -> None:
             fault_estimate_matrix(x), np.diag(own_drift_gain(x[3:])) - fault_input_matrix(x),
             atol=1e-15,
         )
-        d_known = body_gs_derivative(x, u, fh, G) - body_gs_derivative(x, u, np.zeros(6), G)
-        np.testing.assert_allclose(known_drift_rate(x, fh), d_known, atol=1e-10)
+        d_fh = body_gs_derivative(x, u, fh, G) - body_gs_derivative(x, u, np.zeros(6), G)
+        np.testing.assert_allclose(fault_estimate_matrix(x) @ fh, d_fh, atol=1e-10)
 
 
 def test_fault_from_drift_rate_inverts_the_fault_input_matrix() -> None:
-    """Closed-form A^{-1}: A(x) A^{-1}(x) r = r, and for any f and f_hat the drift rate minus
-    the known part M f_hat maps back to f exactly (the decomposition the estimator relies on)."""
+    """Closed-form A^{-1}: A(x) A^{-1}(x) r = r; the drift rate of the model with f_hat = 0
+    (eq. 20) maps back to f exactly, and with f_hat in eqs. 9-14 it is A f + M f_hat."""
     rng = np.random.default_rng(10)
     for _ in range(20):
         x, u, fh = _random_case(rng)
@@ -125,9 +124,13 @@ def test_fault_from_drift_rate_inverts_the_fault_input_matrix() -> None:
         np.testing.assert_allclose(fault_input_matrix(x) @ fault_from_drift_rate(r, x), r,
                                    atol=1e-12)
         f = np.concatenate([rng.uniform(-3, 3, 3), rng.uniform(-0.05, 0.05, 3)])
-        mu_dot = body_gs_derivative(x, u + f, fh, G) - body_gs_derivative(x, u, np.zeros(6), G)
-        f_back = drift_rate_to_fault(mu_dot - known_drift_rate(x, fh), x)
-        np.testing.assert_allclose(f_back, f, atol=1e-11)
+        clean = body_gs_derivative(x, u, np.zeros(6), G)
+        mu_dot = body_gs_derivative(x, u + f, np.zeros(6), G) - clean
+        np.testing.assert_allclose(drift_rate_to_fault(mu_dot, x), f, atol=1e-11)
+        mu_dot_fh = body_gs_derivative(x, u + f, fh, G) - clean
+        np.testing.assert_allclose(
+            mu_dot_fh, fault_input_matrix(x) @ f + fault_estimate_matrix(x) @ fh, atol=1e-11
+        )
     # the inverse is polynomial in sin/cos: finite even at theta = 90 deg
     x90 = np.array([50.0, 1.0, 2.0, 0.3, 0.5 * math.pi, 0.0])
     assert np.all(np.isfinite(fault_from_drift_rate(np.ones(6), x90)))
@@ -151,11 +154,14 @@ def test_steady_coordinated_turn_exact_kinematics_and_fault_map() -> None:
     A = fault_input_matrix(x)
     assert abs(A[4, 5]) == pytest.approx(0.5)  # -sin(phi): r_m drives theta' in eq. 13
     assert abs(A[5, 4]) == pytest.approx(0.5 / math.cos(th))  # q_m drives psi' in eq. 14
-    # fault free, a false gyro estimate f_hat_r = 0.01 rad/s: the model drifts by M f_hat
-    fh = np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.01])
+    # a true r-gyro fault: its drift maps back to exactly that fault
+    f = np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.01])
+    mu_dot = body_gs_derivative(x, u + f, np.zeros(6), g) - body_gs_derivative(x, u, np.zeros(6), g)
+    np.testing.assert_allclose(drift_rate_to_fault(mu_dot, x), f, atol=1e-14)
+    # fault free, a false estimate f_hat_r = 0.01 rad/s in eqs. 9-14 (mappings flat/paper): the
+    # model drifts by M f_hat
+    fh = f
     mu_dot = body_gs_derivative(x, u, fh, g) - body_gs_derivative(x, u, np.zeros(6), g)
-    np.testing.assert_allclose(drift_rate_to_fault(mu_dot - known_drift_rate(x, fh), x),
-                               np.zeros(6), atol=1e-14)
     flat = drift_rate_to_fault(mu_dot, x, mapping="flat")
     # the diagonal map reads the sin(phi) coupling of eq. 13 as an f_q of tan(phi) f_hat_r and
     # the ground-speed cross term of eq. 10 as an f_Ay of u f_hat_r
@@ -223,8 +229,7 @@ def test_compiled_model_matches_numpy_reference() -> None:
         ff = np.empty(6)
         kb.fault_from_drift_rate(r, x, ff)
         np.testing.assert_allclose(ff, fault_from_drift_rate(r, x), **tol)
-        mu, known, sig = rng.normal(size=6), rng.normal(size=6), np.empty(6)
-        known_ref = known + 0.01 * known_drift_rate(x, f_hat)
-        kb.hosm_signal(x, f_hat, 0.01, mu, known, sig)
-        np.testing.assert_allclose(known, known_ref, **tol)
-        np.testing.assert_allclose(sig, mu - known_ref, **tol)
+        mu, mu_prev, f_int = rng.normal(size=6), rng.normal(size=6), rng.normal(size=6)
+        f_int_ref = f_int + fault_from_drift_rate(mu - mu_prev, x)
+        kb.fault_integral_step(x, mu, mu_prev, f_int)
+        np.testing.assert_allclose(f_int, f_int_ref, **tol)
