@@ -1,7 +1,8 @@
 """IMU fault identification by OTSEKF + HOSM differentiation (Atmaca2025).
 
-Chain per Frame (Atmaca2025 Fig. 1): the approximate body-frame ground-speed model (eqs. 9-14,
-``models/kinematics_body.py``) with the current fault estimates, the optimal two-stage EKF
+Chain per Frame (Atmaca2025 Fig. 1): the body-frame ground-speed model (eqs. 9-14,
+``models/kinematics_body.py``; with zero fault estimate as eq. 20 prints it, or with the current
+fault estimates in the cross terms for ``mapping="flat"``/``"paper"``), the optimal two-stage EKF
 (eqs. 20-42, ``filters/otsekf.py``) whose bias stage estimates the state drift ``mu`` (eq. 29),
 the Levant differentiator (eqs. 47-50, ``filters/sliding_mode.py``) and the drift-rate to fault
 mapping (eq. 51, :func:`drift_rate_to_fault`).
