@@ -172,7 +172,7 @@ class Monitor:
     def _link_stats(self, v: VehicleState) -> dict[str, float]:
         st = v.assembler.stats
         return {"loss_pct": st.loss_pct, "crc_errors": float(self.decoder.counters.parse_errors),
-                "boot_count": float(st.reboots)}
+                "boot_count": float(st.reboots), "duplicate_sysid": float(st.duplicate_sysid)}
 
     def finish(self) -> list[AlarmEvent]:
         """End of input: decode bytes still held, then flush held frames through the pipelines."""

@@ -23,7 +23,14 @@ from gcs_monitor.core.types import ChannelId
 from gcs_monitor.core.units import DEG2RAD, KT2MPS
 from gcs_monitor.estimators.base import Estimate, Estimator
 from gcs_monitor.fdi.confirmation import ConfirmationParams
-from gcs_monitor.fdi.events import AlarmEvent, ChannelStatus, SetStatus
+from gcs_monitor.fdi.events import (
+    AlarmEvent,
+    AlarmKind,
+    AlarmState,
+    ChannelStatus,
+    FaultType,
+    SetStatus,
+)
 from gcs_monitor.fdi.isolation import consensus_residuals
 from gcs_monitor.fdi.monitor import (
     ChannelBank,
@@ -44,6 +51,10 @@ SET_NOISE = {"aoa": 0.1 * DEG2RAD, "cas": 0.1, "acc": 0.05, "gyro": 0.05 * DEG2R
 SET_RUNAWAY_RATE = {"aoa": 1.0 * DEG2RAD, "cas": 2.0 * KT2MPS, "acc": 1.0, "gyro": 1.0 * DEG2RAD}
 AIR_DT_S = 0.05  # air-data sample interval (20 Hz, docs/telemetry.md)
 IMU_DT_S = 0.01
+# FDI sets (config.fdi.<name>) of the acc and gyro fault channels per IMU estimator: each
+# estimator's fault estimates have their own fault-free statistics, so their own thresholds
+IMU_FDI_SETS = {"imu_hosm": ("acc_hosm", "gyro_hosm")}
+IMU_FDI_SETS_DEFAULT = ("acc", "gyro")
 IMU_WARMUP_US = 5_000_000  # IMU fault estimates are judged 5 s after an estimator (re)start
 # Floor on J in the eq. 19 weights of the MHE's measurement, as a fraction of J_th: residual RMS
 # below the fault-free level (model error + noise) carries no fault information (see
@@ -163,7 +174,9 @@ class VehiclePipeline:
         self._channels: dict[tuple[str, ChannelId], ChannelMonitor] = {}
         self._aoa_pred = math.nan
         self._cas_pred = math.nan
-        self._est_start_us: dict[str, int] = {}
+        self._est_start_us: dict[str, int] = {}  # judged from this time on, per estimator
+        self._est_judging: set[str] = set()  # estimators whose channels were being judged
+        self._est_event: dict[str, AlarmEvent] = {}  # active re-initialisation notice
         self._last_sets: list[SetStatus] = []
         self._airdata_estimate: Estimate | None = None
         self._aoa_fusion = MheMeasurementFusion(n_aoa, cfg.fdi.aoa.threshold, cfg.fdi.aoa.n_eval,
@@ -185,7 +198,8 @@ class VehiclePipeline:
         mon = self._channels.get(key)
         if mon is None:
             kind = "acc" if ch.kind == "acc" else "gyro"
-            cfg = self.cfg.fdi.acc if kind == "acc" else self.cfg.fdi.gyro
+            acc_set, gyro_set = IMU_FDI_SETS.get(estimator, IMU_FDI_SETS_DEFAULT)
+            cfg = getattr(self.cfg.fdi, acc_set if kind == "acc" else gyro_set)
             mon = ChannelMonitor(ch, channel_params(kind, cfg, IMU_DT_S), estimator=estimator,
                                  vehicle=self.vehicle)
             self._channels[key] = mon
@@ -202,11 +216,22 @@ class VehiclePipeline:
             if not e.available or not e.numerics_ok:
                 self._est_start_us.pop(e.name, None)  # (re)starts: converge again
                 continue
-            t0 = self._est_start_us.setdefault(e.name, frame.t_us)
+            if e.reinit:
+                # the estimator says how long its fault estimates need to re-converge; the
+                # operator is told when channels that were being judged stop being judged
+                self._est_start_us[e.name] = frame.t_us + int(e.reinit_warmup_s * 1e6)
+                if e.name in self._est_judging and e.name not in self._est_event:
+                    out.events.append(self._reinit_event(frame.t_us, e, AlarmState.RAISED))
+                self._est_judging.discard(e.name)
             # Filter convergence: fault estimates are not judged during the first
             # IMU_WARMUP_US after an estimator (re)starts (its start-up transient is up to
             # 10x its converged fault-free level; see docs/results.md, issue 4).
-            judged = frame.t_us - t0 >= IMU_WARMUP_US
+            t0 = self._est_start_us.setdefault(e.name, frame.t_us + IMU_WARMUP_US)
+            judged = frame.t_us >= t0
+            if judged:
+                self._est_judging.add(e.name)
+                if e.name in self._est_event:
+                    out.events.append(self._reinit_event(frame.t_us, e, AlarmState.CLEARED))
             faults = e.faults
             bank = self._banks.get(e.name)
             chans = tuple(faults)
@@ -244,6 +269,21 @@ class VehiclePipeline:
         for sink in self.sinks:
             sink.publish(frame, out.estimates, out.events, out.sets, out.channels)
         return out
+
+    def _reinit_event(self, t_us: int, e: Estimate, state: AlarmState) -> AlarmEvent:
+        """Operator notice of a state re-initialisation (never a sensor-fault alarm): raised
+        when it happens, cleared when the fault channels are judged again."""
+        msg = (e.reinit + f"; fault channels not judged for {e.reinit_warmup_s:g} s"
+               if state is not AlarmState.CLEARED else "fault channels judged again")
+        ev = AlarmEvent(t_us=t_us, channel=ChannelId("estimator", 0, e.name), state=state,
+                        kind=AlarmKind.ESTIMATOR, fault_type=FaultType.UNKNOWN,
+                        magnitude=math.nan, residual_rms=math.nan, threshold=math.nan,
+                        estimator=e.name, message=msg, vehicle=self.vehicle)
+        if state is AlarmState.CLEARED:
+            self._est_event.pop(e.name, None)
+        else:
+            self._est_event[e.name] = ev
+        return ev
 
     def _air_step(self, frame: Frame, out: PipelineStep) -> list[SetStatus]:
         # Python floats and lists: numpy per-call overhead dominates for three instances

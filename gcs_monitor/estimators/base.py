@@ -25,6 +25,11 @@ class Estimate:
     residuals : residuals per monitored channel (measurement minus prediction, SI)
     virtual : corrected / virtual-sensor values per channel (SI)
     numerics_ok : False if the filter detected a numerical failure (and reset itself)
+    reinit : non-empty when the estimator (re)initialised states at this instant; says why
+        (start, input gap, rejected velocity step); the FDI does not judge the fault channels
+        for ``reinit_warmup_s`` afterwards and tells the operator (an ESTIMATOR event, never a
+        sensor-fault alarm)
+    reinit_warmup_s : re-convergence time of the fault estimates after that re-initialisation
     """
 
     name: str
@@ -36,6 +41,8 @@ class Estimate:
     residuals: dict[ChannelId, float] = field(default_factory=dict)
     virtual: dict[ChannelId, float] = field(default_factory=dict)
     numerics_ok: bool = True
+    reinit: str = ""
+    reinit_warmup_s: float = 0.0
 
     @staticmethod
     def unavailable(name: str, t_us: int, reason: str) -> Estimate:

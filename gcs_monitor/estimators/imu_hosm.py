@@ -1,10 +1,25 @@
 """IMU fault identification by OTSEKF + HOSM differentiation (Atmaca2025).
 
-Chain per Frame (Atmaca2025 Fig. 1): the approximate body-frame ground-speed model (eqs. 9-14,
-``models/kinematics_body.py``) with the current fault estimates, the optimal two-stage EKF
+Chain per Frame (Atmaca2025 Fig. 1): the body-frame ground-speed model (eqs. 9-14,
+``models/kinematics_body.py``; with zero fault estimate as eq. 20 prints it, or with the current
+fault estimates in the cross terms for ``mapping="flat"``/``"paper"``), the optimal two-stage EKF
 (eqs. 20-42, ``filters/otsekf.py``) whose bias stage estimates the state drift ``mu`` (eq. 29),
-the Levant differentiator of ``mu`` (eqs. 47-50, ``filters/sliding_mode.py``) and the drift-rate to
-fault mapping (eq. 51, :func:`drift_rate_to_fault`).
+the Levant differentiator (eqs. 47-50, ``filters/sliding_mode.py``) and the drift-rate to fault
+mapping (eq. 51, :func:`drift_rate_to_fault`).
+
+What is differentiated, and how the derivative becomes the fault (``mapping="exact"``,
+default). The fault-neglecting state estimator integrates the model with zero fault estimate,
+``f(x, u_m, 0)``, as eq. 20 prints it, so the drift rate is ``d mu / dt = A(x) f`` with ``A`` the
+fault input matrix of the model at the estimate (``fault_input_matrix``, ``-G`` of eq. 15): full
+in a bank and with the ground speed in eqs. 9-11. Each drift increment is taken into fault
+coordinates, ``g_k = g_{k-1} + A(x_hat_{k-1})^{-1} (mu_k - mu_{k-1})`` (closed form, no
+singularity), so that ``dg/dt = f``, and the HOSM differentiates ``g``: ``z_1`` *is* the fault, as
+eq. 51 says. The alternatives ``mapping="flat"`` / ``"paper"`` put ``f_hat`` into the cross terms
+of eqs. 9-14 and differentiate ``mu``, dividing by ``D`` / taking ``z_1`` as it is (eq. 51
+printed). Both assume ``d mu / dt = D f``, true only at ``f_hat = f``; otherwise it is
+``D f_hat + A (f - f_hat)``, and the loop ``f_hat -> eqs. 9-14 -> mu -> HOSM -> f_hat`` (gain
+``tan phi`` through the ``sin phi`` terms of eqs. 13-14) oscillates at ~1 Hz in a 30 deg
+coordinated turn with zero true fault (docs/papers-notes.md, Atmaca2025).
 
 How the drift enters the two-stage filter (not written out in Atmaca2025, see
 docs/papers-notes.md): ``mu`` is the model state minus the true state. The true state obeys the
@@ -14,7 +29,7 @@ in the state noise: ``Qx = Gamma Q Gamma^T + Q^mu``, ``Q^{x mu} = -Q^mu`` (the "
 process and fault noise" of eq. 36), and the bias-to-state matrix of eq. 37 is ``B = 0`` when the
 model is evaluated at the drift-corrected estimate (``propagate="corrected"``, default), or
 ``B = Phi - I`` when it is evaluated at the drifting ``x_bar`` as eq. 20 literally reads
-(``propagate="paper"``). In both cases ``d mu / dt = D f`` and the HOSM derivative is the fault.
+(``propagate="paper"``).
 """
 
 from __future__ import annotations
@@ -45,6 +60,7 @@ from gcs_monitor.models.kinematics_body import (
     body_gs_noise_matrix,
     compiled_kernels,
     drift_rate_to_fault,
+    fault_from_drift_rate,
 )
 from gcs_monitor.telemetry.frame import Frame
 
@@ -100,7 +116,8 @@ class ImuHosmConfig:
     gate_sigma : innovation gate for the reported test ratio
     max_gps_age_s, max_att_age_s : older inputs make the estimate unavailable
     max_dt_s : a larger gap between frames resets the filter
-    mapping : drift-rate to fault mapping, ``"flat"`` or ``"paper"`` (eq. 51)
+    mapping : drift-rate to fault mapping, ``"exact"`` (default), ``"flat"`` or ``"paper"``
+        (eq. 51 printed); see the module docstring
     propagate : ``"corrected"`` or ``"paper"`` (see module docstring)
     compiled : run model, OTSEKF and HOSM through their numba kernels when numba is installed
         (same equations; ``False`` runs the numpy references)
@@ -117,7 +134,7 @@ class ImuHosmConfig:
     max_gps_age_s: float = 0.5
     max_att_age_s: float = 0.1
     max_dt_s: float = 0.1
-    mapping: str = "flat"
+    mapping: str = "exact"
     propagate: str = "corrected"
     compiled: bool = True
 
@@ -171,8 +188,11 @@ class ImuHosmEstimator:
         self._H_buf: Mat = np.zeros((ns, ns))
         self._g_key = (math.nan, math.nan)
         self._g = math.nan
-        if self.cfg.mapping not in ("flat", "paper"):
-            raise ValueError(f"mapping must be 'flat' or 'paper', got {self.cfg.mapping!r}")
+        self._zero_f: Vec = np.zeros(ns)
+        if self.cfg.mapping not in ("exact", "flat", "paper"):
+            raise ValueError(
+                f"mapping must be 'exact', 'flat' or 'paper', got {self.cfg.mapping!r}"
+            )
         if self.cfg.propagate not in ("corrected", "paper"):
             raise ValueError(
                 f"propagate must be 'corrected' or 'paper', got {self.cfg.propagate!r}"
@@ -183,6 +203,7 @@ class ImuHosmEstimator:
         self._filt: OtsekfState | None = None
         self._hosm: HosmState | None = None
         self._f_hat: Vec = np.zeros(N_STATE)
+        self._f_int: Vec = np.zeros(N_STATE)
         self._t_prev_us: int | None = None
 
     # ------------------------------------------------------------------ helpers
@@ -195,18 +216,23 @@ class ImuHosmEstimator:
         self._filt = otsekf_init(x0, P0, np.zeros(N_STATE), np.zeros((N_STATE, N_STATE)))
         self._hosm = hosm_init(np.zeros(N_STATE))
         self._f_hat = np.zeros(N_STATE)
+        self._f_int = np.zeros(N_STATE)
 
     def _prediction(self, s: OtsekfState, st: _Step) -> OtsekfPrediction:
         """Model quantities for k-1 -> k (Atmaca2025 eqs. 20, 25-27)."""
         if self._kb is not None:
             p = self._pred_buf
             self._kb.prediction(
-                s.x_hat, s.x_bar, s.V, s.mu, st.u_m, self._f_hat, st.g_mps2, st.dt_s,
+                s.x_hat, s.x_bar, s.V, s.mu, st.u_m, self._f_model(), st.g_mps2, st.dt_s,
                 self._q_imu_diag, self._drift_var_rate, self.cfg.propagate == "corrected",
                 p.Phi, p.B, p.Qx, p.Qxmu, p.Qmu, p.x_bar_prop,
             )  # fmt: skip
             return p
         return self._prediction_reference(s, st)
+
+    def _f_model(self) -> Vec:
+        """Fault estimate inside eqs. 9-14: zero for ``mapping="exact"`` (eq. 20 as printed)."""
+        return self._zero_f if self.cfg.mapping == "exact" else self._f_hat
 
     def _meas_compiled(self, x: Vec) -> tuple[Vec, Mat]:
         assert self._kb is not None
@@ -215,7 +241,7 @@ class ImuHosmEstimator:
 
     def _prediction_reference(self, s: OtsekfState, st: _Step) -> OtsekfPrediction:
         """Numpy reference of :meth:`_prediction` (the compiled model mirrors it)."""
-        dt, g, u_m, fh = st.dt_s, st.g_mps2, st.u_m, self._f_hat
+        dt, g, u_m, fh = st.dt_s, st.g_mps2, st.u_m, self._f_model()
         x_lin = s.x_hat  # eq. 26: linearise at x_hat_{k-1|k-1}
         F = body_gs_jac_x(x_lin, u_m, fh, g)
         Fdt = F * dt
@@ -276,6 +302,7 @@ class ImuHosmEstimator:
             self._t_prev_us = frame.t_us
             return self._estimate(frame.t_us, st, np.zeros(N_STATE), np.zeros(N_STATE), True)
         assert self._hosm is not None
+        x_prev, mu_prev = self._filt.x_hat, self._filt.mu
         pred = self._prediction(self._filt, st)
         compiled = self._kb is not None
         filt, innov = otsekf_step(
@@ -294,10 +321,25 @@ class ImuHosmEstimator:
             self._init(st.y)
             return self._estimate(frame.t_us, st, np.zeros(N_STATE), np.zeros(N_STATE), False)
         self._filt = filt
-        # eqs. 47-50 on mu_{k|k}, then eq. 51
-        self._hosm = hosm_step(self._hosm, filt.mu, self._lambdas, st.dt_s, compiled=compiled)
-        self._f_hat = drift_rate_to_fault(self._hosm.z[1], filt.x_hat[3:], mapping=self.cfg.mapping)
+        self._f_hat = self._fault_update(x_prev, mu_prev, filt, st.dt_s, compiled)
         return self._estimate(frame.t_us, st, innov.nu, innov.test_ratio, True)
+
+    def _fault_update(
+        self, x_prev: Vec, mu_prev: Vec, filt: OtsekfState, dt_s: float, compiled: bool
+    ) -> Vec:
+        """Eqs. 47-50 and eq. 51 (``mapping``, see the module docstring)."""
+        assert self._hosm is not None
+        kb = self._kb
+        if self.cfg.mapping != "exact":
+            self._hosm = hosm_step(self._hosm, filt.mu, self._lambdas, dt_s, compiled=compiled)
+            return drift_rate_to_fault(self._hosm.z[1], filt.x_hat, mapping=self.cfg.mapping)
+        # drift increment of step k-1 -> k into fault coordinates at the state the model used
+        if kb is not None:
+            kb.fault_integral_step(x_prev, filt.mu, mu_prev, self._f_int)
+        else:
+            self._f_int = self._f_int + fault_from_drift_rate(filt.mu - mu_prev, x_prev)
+        self._hosm = hosm_step(self._hosm, self._f_int, self._lambdas, dt_s, compiled=compiled)
+        return self._hosm.z[1].copy()
 
     def _estimate(self, t_us: int, st: _Step, nu: Vec, ratio: Vec, ok: bool) -> Estimate:
         assert self._filt is not None

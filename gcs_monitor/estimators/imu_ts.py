@@ -18,6 +18,14 @@ from gcs_monitor.core.atmosphere import tas_from_cas
 from gcs_monitor.core.types import ChannelId, Mat, Vec
 from gcs_monitor.estimators.base import Estimate
 from gcs_monitor.core.atmosphere import gravity_mps2
+from gcs_monitor.estimators.gating import (
+    GateConfig,
+    GateDecision,
+    SQRT6,
+    MeasurementStepGate,
+    intra_sample_excess_var,
+    step_bound,
+)
 from gcs_monitor.filters.ekf import Innovation
 from gcs_monitor.filters.two_stage import (
     PackedTwoStage,
@@ -89,8 +97,20 @@ class ImuTsConfig:
     adaptive : True = ATSEKF (eqs. 53-58); False = IOTSEKF with fixed ``Q^f``
     imu_instance : which IMU of the Frame to monitor
     max_gps_age_s, max_att_age_s, max_air_age_s : staleness limits of the slow inputs
-    max_dt_s : a larger gap between IMU samples resets the filter
+    max_held_gps_age_s : a GPS velocity held past its sample (``Frame.gps_held``, no later
+        sample to interpolate towards) is a measurement of ``t - age``; its error is
+        ``|dv/dt| age`` (0.5 m/s at 0.1 s and 5 m/s^2), so beyond this age it is not used
+    max_dt_s : after a larger gap between usable samples the states are re-initialised from
+        the measurement; the fault estimates are kept (their covariance grown by the random
+        walk ``Q^f`` over the gap) when ``gate.enabled`` and the filter has run for
+        ``start_warmup_s`` since its last full start (converged); else the filter restarts
     imu_rate_hz : nominal IMU rate, sets the per-sample initial ``Q^f``
+    gate : input-validity term and GPS-velocity step gate (:mod:`gating`; GS-KM only)
+    start_warmup_s : convergence time of the fault estimates after a (re)start, s (the FDI
+        does not judge them before; the start-up transient is up to 10x the converged level,
+        docs/results.md issue 4)
+    reanchor_warmup_s : the same after a re-anchoring of the states with the fault
+        estimates kept (input gap, rejected velocity step), s
     """
 
     model: str = "gs"
@@ -100,10 +120,14 @@ class ImuTsConfig:
     prior: FaultPrior = field(default_factory=FaultPrior)
     filter: TwoStageConfig = field(default_factory=TwoStageConfig)
     max_gps_age_s: float = 0.5
+    max_held_gps_age_s: float = 0.1
     max_att_age_s: float = 0.5
     max_air_age_s: float = 0.5
     max_dt_s: float = 0.1
     imu_rate_hz: float = 100.0
+    gate: GateConfig = field(default_factory=GateConfig)
+    start_warmup_s: float = 5.0
+    reanchor_warmup_s: float = 2.0
 
 
 def _all_finite(a: Vec) -> bool:
@@ -142,9 +166,16 @@ class ImuTwoStageEstimator:
             window_n=self.cfg.filter.window_n,
             gate_sigma=self.cfg.filter.gate_sigma,
         )
+        self._d2_floor = [self.cfg.gate.gate_sigma * SQRT6 * x for x in sig_u]  # gating item 1
+        # velocity rows 0-2 and Euler rows 3-5 are gated separately (gating.py item 2)
+        self._gates = (MeasurementStepGate(self.cfg.gate), MeasurementStepGate(self.cfg.gate))
         self._state: TwoStageState | None = None
         self._u_prev: Vec | None = None
+        self._u_prev2: list[float] | None = None  # input at k-2 and k-1, plain floats
+        self._u_prev_l: list[float] = []
+        self._r_prev = [0.0] * 6  # previous measured minus estimated output (gates)
         self._t_prev_us = 0
+        self._t_start_us = 0  # time of the last full (re)start
         # Compiled hot path (GS-KM, numba): the model kernels write F, G and the propagated
         # x_bar into these work arrays and PackedTwoStage runs the filter step in one call; the
         # same equations and operations as two_stage_step (tests/.../test_imu_ts.py).
@@ -162,6 +193,10 @@ class ImuTwoStageEstimator:
     def reset(self) -> None:
         self._state = None
         self._u_prev = None
+        self._u_prev2 = None
+        self._u_prev_l = []
+        for g in self._gates:
+            g.reset()
 
     def step(self, frame: Frame) -> Estimate:
         cfg = self.cfg
@@ -181,17 +216,41 @@ class ImuTwoStageEstimator:
             return Estimate.unavailable(self.name, frame.t_us, "imu sample not finite")
         dt_s = (frame.t_us - self._t_prev_us) * 1e-6
         if self._state is None or self._u_prev is None or not 0.0 < dt_s <= cfg.max_dt_s:
-            self._state = self._init_state(y)
-            self._u_prev, self._t_prev_us = u_m, frame.t_us
-            return self._estimate(frame.t_us, self._state, u_m, np.zeros(y.size), True)
+            converged = frame.t_us - self._t_start_us >= cfg.start_warmup_s * 1e6
+            if self._state is not None and dt_s > 0.0 and cfg.gate.enabled and converged:
+                self._state = self._reanchor(self._state, y, dt_s)
+                why = f"input gap {dt_s:.2f} s: states re-anchored, fault estimates kept"
+                warm = cfg.reanchor_warmup_s
+            else:
+                self._state = self._init_state(y)
+                why, warm = "start", cfg.start_warmup_s
+                self._t_start_us = frame.t_us
+            self._u_prev, self._u_prev2, self._t_prev_us = u_m, None, frame.t_us
+            self._u_prev_l = u_m.tolist()
+            self._r_prev = [0.0] * 6
+            for g in self._gates:
+                g.reset()
+            return replace(self._estimate(frame.t_us, self._state, u_m, np.zeros(y.size), True),
+                           reinit=why, reinit_warmup_s=warm)
         s = self._state
         y = y.copy()
         y[5] = s.x[5] + _wrap_pi(y[5] - s.x[5])  # heading innovation across +-pi
+        noise, extra = self._noise, None
+        u_l = u_m.tolist()
+        if cfg.gate.enabled and self._u_prev2 is not None:
+            # gating.py item 1: unresolved intra-sample input profile is process noise (eq. 56)
+            extra = intra_sample_excess_var(self._u_prev2, self._u_prev_l, u_l, self._d2_floor)
+            if extra is not None:
+                noise = TwoStageNoise(Q=self._noise.Q + np.diag(extra), R=self._noise.R)
+        model = self._model(frame)
         if self._packed is not None and s.k >= self._fcfg.n_iterated_steps:
-            new, innov = self._step_packed(s, frame, u_m, y, dt_s)
+            new, innov = self._step_packed(s, frame, u_m, y, dt_s, noise)
         else:
-            new, innov = two_stage_step(s, self._model(frame), self._u_prev, u_m, y, dt_s,
-                                        self._noise, self._fcfg)
+            new, innov = two_stage_step(s, model, self._u_prev, u_m, y, dt_s, noise, self._fcfg)
+        why = ""
+        if cfg.gate.enabled and cfg.model == "gs" and innov.numerics_ok:
+            why, new, innov = self._gated(s, model, u_m, y, dt_s, noise, extra, new, innov)
+        self._u_prev2, self._u_prev_l = self._u_prev_l, u_l
         self._u_prev, self._t_prev_us = u_m, frame.t_us
         if not innov.numerics_ok:
             log.warning("imu_ts: numerical failure at t_us=%d, filter reset", frame.t_us)
@@ -203,11 +262,17 @@ class ImuTwoStageEstimator:
             shift[5] = _wrap_pi(new.x[5]) - new.x[5]
             new = replace(new, x_bar=new.x_bar + shift, x=new.x + shift)
         self._state = new
-        return self._estimate(frame.t_us, new, u_m, innov.nu, True)
+        r = (y - new.x).tolist()
+        r[5] = _wrap_pi(r[5])  # y[5] was unwrapped against the previous state, new.x may wrap
+        self._r_prev = r
+        est = self._estimate(frame.t_us, new, u_m, innov.nu, True)
+        if why:
+            return replace(est, reinit=why, reinit_warmup_s=cfg.reanchor_warmup_s)
+        return est
 
     # -- helpers -------------------------------------------------------------------------------
-    def _step_packed(self, s: TwoStageState, frame: Frame, u_m: Vec, y: Vec,
-                     dt_s: float) -> tuple[TwoStageState, Innovation]:
+    def _step_packed(self, s: TwoStageState, frame: Frame, u_m: Vec, y: Vec, dt_s: float,
+                     noise: TwoStageNoise) -> tuple[TwoStageState, Innovation]:
         """``two_stage_step(s, GsKm(lat, alt), ...)`` through the compiled GS-KM and filter."""
         assert self._kin is not None and self._packed is not None and self._u_prev is not None
         lat, alt = frame.lat_rad, frame.alt_msl_m
@@ -217,7 +282,7 @@ class ImuTwoStageEstimator:
         kin = self._kin
         kin.jacobians(s.x, self._u_prev - s.f, lat, alt, self._F, self._G)  # Lu2016 note 1
         kin.propagate(s.x_bar, self._u_prev, u_m, lat, alt, self._g, dt_s, self._xb)  # eq. 31
-        return self._packed.step(s, self._F, self._G, self._xb, y, dt_s, self._noise, self._fcfg)
+        return self._packed.step(s, self._F, self._G, self._xb, y, dt_s, noise, self._fcfg)
 
     def _model(self, frame: Frame) -> GsKm | AsKm:
         if self.cfg.model == "gs":
@@ -230,6 +295,8 @@ class ImuTwoStageEstimator:
         if self.cfg.model == "gs":
             v = frame.gps_vel_ned_mps
             if v is None or frame.gps_age_s > cfg.max_gps_age_s or not _all_finite(v):
+                return None
+            if frame.gps_held and frame.gps_age_s > cfg.max_held_gps_age_s:
                 return None
             return np.concatenate([v, eul])
         cas, aoa, ssa = float(frame.cas_mps[0]), float(frame.aoa_rad[0]), frame.ssa_rad
@@ -271,6 +338,65 @@ class ImuTwoStageEstimator:
             m=6,
             window_n=self._fcfg.window_n,
         )
+
+    def _reanchor(self, s: TwoStageState, y: Vec, gap_s: float) -> TwoStageState:
+        """States from the measurement after an input gap; fault estimate kept, its covariance
+        grown by the random walk of the fault model (Lu2016 sec. 3.1) over the gap."""
+        fresh = self._init_state(y)
+        n_steps = gap_s * self.cfg.imu_rate_hz
+        return replace(fresh, f=s.f.copy(), Pf=s.Pf + n_steps * s.Qf, Qf=s.Qf.copy(), k=s.k)
+
+    def _gated(self, s: TwoStageState, model: GsKm | AsKm, u_m: Vec, y: Vec, dt_s: float,
+               noise: TwoStageNoise, extra: list[float] | None, new: TwoStageState,
+               innov: Innovation) -> tuple[str, TwoStageState, Innovation]:
+        """Velocity and attitude step gates (gating.py item 2) on a finished step; re-runs the
+        step without the rejected rows only when a gate does not accept."""
+        g = self.cfg.gate
+        ex = [0.0] * 6 if extra is None else extra
+        nu, sd, r = innov.nu.tolist(), innov.S_diag.tolist(), self._r_prev
+        decisions = []
+        for j, (gate, step_max) in enumerate(zip(
+                self._gates, (g.acc_fault_step_max_mps2, g.gyro_fault_step_max_radps),
+                strict=True)):
+            a, b = 3 * j, 3 * j + 3
+            bound = step_bound(sd[a:b], ex[a:b], dt_s, g.gate_sigma, step_max)
+            decisions.append(gate.decide(nu[a:b], r[a:b], bound))
+        if all(d is GateDecision.ACCEPT for d in decisions):
+            return "", new, innov
+        # no information from the rejected rows this sample: the measurement is replaced by the
+        # prediction (zero innovation); the real innovation is still reported
+        y_pred = y.copy()
+        for j, d in enumerate(decisions):
+            if d is not GateDecision.ACCEPT:
+                y_pred[3 * j:3 * j + 3] -= innov.nu[3 * j:3 * j + 3]
+        new, innov2 = two_stage_step(s, model, self._u_prev, u_m, y_pred, dt_s, noise,
+                                     self._fcfg)
+        if not innov2.numerics_ok:
+            return "", new, innov2
+        why = []
+        for j, (d, what, unit) in enumerate(zip(
+                decisions, ("gps velocity", "attitude"), ("m/s", "rad"), strict=True)):
+            if d is GateDecision.REANCHOR:
+                new = self._reanchor_rows(new, slice(3 * j, 3 * j + 3), y[3 * j:3 * j + 3])
+                why.append(f"{what} step {self._gates[j].last_step:.3g} {unit}")
+        if not why:
+            return "", new, innov
+        return (" and ".join(why) + " not explained by the IMU: states re-anchored, fault "
+                "estimates kept"), new, innov
+
+    def _reanchor_rows(self, s: TwoStageState, rows: slice, value: Vec) -> TwoStageState:
+        """States ``rows`` set to the measurement (gating.py item 2); fault estimate, the other
+        states and the fault/state coupling V kept: ``x = x_bar + V f`` (Lu2016 eq. 51)."""
+        x = s.x.copy()
+        x_bar = s.x_bar.copy()
+        x[rows] = value
+        x_bar[rows] = value - s.V[rows] @ s.f
+        P_bar = s.P_bar.copy()
+        P_bar[rows, :] = 0.0
+        P_bar[:, rows] = 0.0
+        P_bar[rows, rows] = self._noise.R[rows, rows]
+        Px = P_bar + s.V @ s.Pf @ s.V.T  # eq. 52
+        return replace(s, x=x, x_bar=x_bar, P_bar=P_bar, Px=Px)
 
     def _init_cov(self, x0: Vec) -> Mat:
         # first measurement as the estimate: its covariance is R mapped through h^{-1}

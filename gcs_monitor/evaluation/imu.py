@@ -108,6 +108,18 @@ def default_variant() -> list[Estimator]:
     return [ImuTwoStageEstimator()]
 
 
+def hosm_variant() -> list[Estimator]:
+    """What the monitor runs with ``estimators.imu_hosm = true`` (and imu_ts off)."""
+    return [ImuHosmEstimator()]
+
+
+# estimator name -> (factory, FDI set names of its acc and gyro channels, MonitorConfig.fdi)
+DETECTION_ESTIMATORS: dict[str, tuple[EstimatorFactory, tuple[str, str]]] = {
+    "imu_ts": (default_variant, ("acc", "gyro")),
+    "imu_hosm": (hosm_variant, ("acc_hosm", "gyro_hosm")),
+}
+
+
 # ------------------------------------------------------------------------------------------------
 # one run through the MAVLink path
 # ------------------------------------------------------------------------------------------------
@@ -167,12 +179,14 @@ class _Capture:
 
 
 def replay_packets(packets: Iterable[bytes], estimators: EstimatorFactory,
-                   cfg: MonitorConfig | None = None
+                   cfg: MonitorConfig | None = None, *,
+                   notices: list[AlarmEvent] | None = None
                    ) -> tuple[np.ndarray, dict[str, np.ndarray], list[AlarmEvent]]:
     """Feed MAVLink packets through a Monitor; return Frame times, f_hat per estimator, alarms.
 
     ``estimators`` builds the IMU estimators (air-data estimation is off: not under test here;
-    the AoA/CAS sets still run on set consensus)."""
+    the AoA/CAS sets still run on set consensus). ``notices``: if given, the ESTIMATOR events
+    (re-initialisation notices, never alarms) are appended to it."""
     cfg = cfg or MonitorConfig(estimators=EstimatorsConfig(airdata="none"))
     cap = _Capture()
     mon = Monitor(cfg, estimators_for=lambda sysid: (estimators(), None), on_step=cap)
@@ -187,6 +201,8 @@ def replay_packets(packets: Iterable[bytes], estimators: EstimatorFactory,
     t_s, f_hat = cap.arrays()
     events = [e for e in mon.events if e.kind == AlarmKind.SENSOR_FAULT
               and e.channel.kind in ("acc", "gyro")]
+    if notices is not None:
+        notices += [e for e in mon.events if e.kind == AlarmKind.ESTIMATOR]
     return t_s, f_hat, events
 
 
@@ -441,15 +457,17 @@ ISOLATION_VARIANTS = ("lu2016_turbulence:acc", "lu2016_turbulence:gyro")
 EVAL_SEEDS = (1, 2, 3)
 
 
-def _ff_run(manoeuvre: str, seed: int, duration_s: float) -> ImuRun:
-    return simulate(fault_free_variant(manoeuvre, seed, duration_s=duration_s), default_variant)
+def _ff_run(manoeuvre: str, seed: int, duration_s: float, estimator: str = "imu_ts") -> ImuRun:
+    return simulate(fault_free_variant(manoeuvre, seed, duration_s=duration_s),
+                    DETECTION_ESTIMATORS[estimator][0])
 
 
 def calibrate_imu_thresholds(*, seeds: Sequence[int] = CALIBRATION_SEEDS,
                              manoeuvres: Sequence[str] = MANOEUVRES, duration_s: float = 60.0,
                              jobs: int = 1, rule: str = "max", k: float | None = None,
                              base: FdiConfig | None = None,
-                             echo: Callable[[str], None] = print) -> dict[str, SetConfig]:
+                             echo: Callable[[str], None] = print,
+                             estimator: str = "imu_ts") -> dict[str, SetConfig]:
     """IMU channel thresholds J_th from fault-free runs (Wan2018 sec. VI-B rule, fdi.calibrate).
 
     Fault-free variants of lu2016_turbulence (every manoeuvre, Dryden turbulence, the given
@@ -457,34 +475,39 @@ def calibrate_imu_thresholds(*, seeds: Sequence[int] = CALIBRATION_SEEDS,
     ``calibrate`` over each channel's whole f_hat record (start-up included, since fault-free
     runs must not alarm at start-up either) with the monitor's N_eval; the threshold of the
     acc (gyro) set is the largest over its three channels. ``n_eval``/``n_detect`` stay as in
-    ``base`` (the config defaults). Prints the numbers; returns ``{"acc": ..., "gyro": ...}``.
+    ``base`` (the config defaults). ``estimator``: ``"imu_ts"`` (sets ``acc``, ``gyro``) or
+    ``"imu_hosm"`` (sets ``acc_hosm``, ``gyro_hosm``), see :data:`DETECTION_ESTIMATORS`.
+    Prints the numbers; returns ``{acc set: ..., gyro set: ...}``.
     """
     base = base or FdiConfig()
-    args = [(m, s, duration_s) for m in manoeuvres for s in seeds]
+    acc_set, gyro_set = DETECTION_ESTIMATORS[estimator][1]
+    base_acc, base_gyro = getattr(base, acc_set), getattr(base, gyro_set)
+    args = [(m, s, duration_s, estimator) for m in manoeuvres for s in seeds]
     runs = _pmap(_ff_run, args, jobs)
     per = np.zeros((len(runs), 6))
     warm = np.zeros((len(runs), 6))  # the same without the first STARTUP_S (for the report)
     for j, run in enumerate(runs):
-        f = run.f_hat["imu_ts"]
+        f = run.f_hat[estimator]
         late = run.t_s >= run.t_s[0] + STARTUP_S
         for i in range(6):
-            cfg = base.acc if i < 3 else base.gyro
+            cfg = base_acc if i < 3 else base_gyro
             per[j, i] = calibrate(f[:, i], rms_window_n=cfg.n_eval, rule=rule, k=k)
             warm[j, i] = calibrate(f[late, i], rms_window_n=cfg.n_eval, rule=rule, k=k)
     worst = per.max(axis=0)
-    out = {"acc": dataclasses.replace(base.acc, threshold=float(worst[:3].max())),
-           "gyro": dataclasses.replace(base.gyro, threshold=float(worst[3:].max()))}
-    echo(f"calibrate_imu_thresholds: {len(runs)} fault-free runs ({list(manoeuvres)} x seeds "
-         f"{list(seeds)}, {duration_s:g} s, turbulence), rule={rule} k={k}")
+    out = {acc_set: dataclasses.replace(base_acc, threshold=float(worst[:3].max())),
+           gyro_set: dataclasses.replace(base_gyro, threshold=float(worst[3:].max()))}
+    echo(f"calibrate_imu_thresholds ({estimator}): {len(runs)} fault-free runs "
+         f"({list(manoeuvres)} x seeds {list(seeds)}, {duration_s:g} s, turbulence), "
+         f"rule={rule} k={k}")
     for i, a in enumerate(AXES):
         j = int(np.argmax(per[:, i]))
         unit = "m/s^2" if i < 3 else "deg/s"
         echo(f"  {a}: J_th = {per[j, i] * REPORT_SCALE[i]:.4g} {unit} (worst run {runs[j].name});"
              f" without the first {STARTUP_S:g} s: {warm[:, i].max() * REPORT_SCALE[i]:.4g}")
-    echo(f"  -> fdi.acc.threshold_mps2 = {out['acc'].threshold:.4g} (n_eval "
-         f"{out['acc'].n_eval}, n_detect {out['acc'].n_detect})")
-    echo(f"  -> fdi.gyro.threshold_degps = {out['gyro'].threshold * RAD2DEG:.4g} (n_eval "
-         f"{out['gyro'].n_eval}, n_detect {out['gyro'].n_detect})")
+    echo(f"  -> fdi.{acc_set}.threshold_mps2 = {out[acc_set].threshold:.4g} (n_eval "
+         f"{out[acc_set].n_eval}, n_detect {out[acc_set].n_detect})")
+    echo(f"  -> fdi.{gyro_set}.threshold_degps = {out[gyro_set].threshold * RAD2DEG:.4g} (n_eval "
+         f"{out[gyro_set].n_eval}, n_detect {out[gyro_set].n_detect})")
     return out
 
 
@@ -494,7 +517,7 @@ def detection_config(sets: dict[str, SetConfig]) -> MonitorConfig:
 
 
 def _det_run(preset: str | None, manoeuvre: str | None, seed: int, duration_s: float,
-             cfg: MonitorConfig) -> ImuRun:
+             cfg: MonitorConfig, estimator: str = "imu_ts") -> ImuRun:
     if preset is None:
         sc = fault_free_variant(manoeuvre or "level", seed, duration_s=duration_s)
     else:
@@ -503,7 +526,7 @@ def _det_run(preset: str | None, manoeuvre: str | None, seed: int, duration_s: f
         if only:
             sc = dataclasses.replace(sc, name=preset.replace(":", "_"), faults=tuple(
                 f for f in sc.faults if f.channel.startswith(f"imu0.{only}.")))
-    return simulate(sc, default_variant, cfg)
+    return simulate(sc, DETECTION_ESTIMATORS[estimator][0], cfg)
 
 
 def detection_summary(run: ImuRun, estimator: str = "imu_ts") -> dict[str, Any]:
@@ -529,45 +552,49 @@ def detection_summary(run: ImuRun, estimator: str = "imu_ts") -> dict[str, Any]:
     return out
 
 
-def imu_detection(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
+def imu_detection(out_dir: Path, jobs: int = 1, quick: bool = False,
+                  estimator: str = "imu_ts") -> str:
     """Thresholds from fault-free runs of calibration seeds, then detection delays and isolation
     on the Table 2 (and Atmaca2025) scenarios and false alarms on fault-free manoeuvres in
     turbulence with the evaluation seeds. ``quick``: one calibration seed, one evaluation seed,
-    30 s fault-free runs."""
+    30 s fault-free runs. ``estimator``: see :data:`DETECTION_ESTIMATORS`."""
     out_dir = Path(out_dir)
     lines: list[str] = []
     cal_seeds = CALIBRATION_SEEDS[:1] if quick else CALIBRATION_SEEDS
     eval_seeds = EVAL_SEEDS[:1] if quick else EVAL_SEEDS
     dur = 30.0 if quick else 60.0
+    acc_set, gyro_set = DETECTION_ESTIMATORS[estimator][1]
     sets = calibrate_imu_thresholds(seeds=cal_seeds, duration_s=dur, jobs=jobs,
-                                    echo=lines.append)
+                                    echo=lines.append, estimator=estimator)
     cfg = detection_config(sets)
     presets = TABLE2_PRESETS + ISOLATION_VARIANTS
-    args: list[tuple[Any, ...]] = [(p, None, s, dur, cfg) for p in presets for s in eval_seeds]
-    args += [(None, m, s, dur, cfg) for m in MANOEUVRES for s in eval_seeds]
+    args: list[tuple[Any, ...]] = [(p, None, s, dur, cfg, estimator) for p in presets
+                                   for s in eval_seeds]
+    args += [(None, m, s, dur, cfg, estimator) for m in MANOEUVRES for s in eval_seeds]
     runs = _pmap(_det_run, args, jobs)
     header = ["scenario", "seed"] + [f"delay {a} [s]" for a in AXES] + [
         "missed", "false alarms"]
     rows = []
     ff_rows = []
     for a, run in zip(args, runs, strict=True):
-        d = detection_summary(run)
+        d = detection_summary(run, estimator)
         name = a[0] if a[0] is not None else f"fault-free {a[1]}"
         if a[0] is not None:
             rows.append([name, a[2]] + [float(x) for x in d["delay_s"]]
                         + [d["missed"], d["false"]])
         else:
-            f = np.abs(run.f_hat["imu_ts"]) * REPORT_SCALE
+            f = np.abs(run.f_hat[estimator]) * REPORT_SCALE
             late = run.t_s >= run.t_s[0] + STARTUP_S
             fmax = np.concatenate([np.nanmax(f, axis=0), np.nanmax(f[late], axis=0)])
             ff_rows.append([name, a[2], d["false"]] + [float(x) for x in fmax])
-    write_csv(out_dir / "imu_detection.csv", header, rows)
+    tag = "" if estimator == "imu_ts" else f"_{estimator}"
+    write_csv(out_dir / f"imu_detection{tag}.csv", header, rows)
     ff_header = ["scenario", "seed", "alarms"] + [f"max abs {a}" for a in AXES] + [
         f"max abs {a} after {STARTUP_S:g} s" for a in AXES]
-    write_csv(out_dir / "imu_detection_fault_free.csv", ff_header, ff_rows)
-    thr = (f"Thresholds (n_eval {sets['acc'].n_eval}, n_detect {sets['acc'].n_detect}): "
-           f"acc {sets['acc'].threshold:.4g} m/s^2, gyro {sets['gyro'].threshold * RAD2DEG:.4g} "
-           "deg/s")
+    write_csv(out_dir / f"imu_detection{tag}_fault_free.csv", ff_header, ff_rows)
+    thr = (f"Thresholds of {estimator} (n_eval {sets[acc_set].n_eval}, n_detect "
+           f"{sets[acc_set].n_detect}): acc {sets[acc_set].threshold:.4g} m/s^2, gyro "
+           f"{sets[gyro_set].threshold * RAD2DEG:.4g} deg/s")
     return ("Calibration (fault-free, seeds " + str(list(cal_seeds)) + "):\n\n```\n"
             + "\n".join(lines) + "\n```\n\n" + thr + "\n\nDetection (delay = first alarm "
             "raised on the channel minus the channel's fault start; '-' = channel not faulty "
@@ -576,11 +603,19 @@ def imu_detection(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
             + md_table(ff_header, ff_rows) + "\n")
 
 
+def imu_detection_hosm(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
+    """:func:`imu_detection` for the OTSEKF+HOSM (Atmaca2025) with its own thresholds
+    (``fdi.acc_hosm``, ``fdi.gyro_hosm``), calibrated the same way on the same calibration
+    seeds (not the evaluation seeds)."""
+    return imu_detection(out_dir, jobs, quick, estimator="imu_hosm")
+
+
 def experiments() -> dict[str, Callable[[Path, int, bool], str]]:
     out: dict[str, Callable[[Path, int, bool], str]] = {
         "lu2016_table2": lu2016_table2,
         "atmaca2025": atmaca2025,
         "imu_detection": imu_detection,
+        "imu_detection_hosm": imu_detection_hosm,
     }
     out["closed_loop"] = closed_loop
     return out

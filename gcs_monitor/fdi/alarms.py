@@ -150,8 +150,11 @@ class LinkAlarmMonitor:
     - ``stream_age_s`` : time since the last message of this vehicle, s
     - ``boot_count`` : cumulative number of reboots seen (e.g. from a drop of
       ``time_boot_ms``); any increase is a reboot
+    - ``duplicate_sysid`` : 1 while two senders share this system id (interleaved sequence
+      numbers, conflicting clocks or heartbeats; see ``LinkStats``), else 0
 
-    Channels: ``ChannelId("link", vehicle, "loss" | "crc" | "stale" | "reboot")``.
+    Channels: ``ChannelId("link", vehicle, "loss" | "crc" | "stale" | "reboot" |
+    "duplicate_sysid")``.
     """
 
     def __init__(self, *, params: LinkAlarmParams | None = None, vehicle: int = 1) -> None:
@@ -160,7 +163,7 @@ class LinkAlarmMonitor:
         self._sm = {
             name: AlarmStateMachine(ChannelId("link", vehicle, name), AlarmKind.LINK, "link",
                                     vehicle=vehicle)
-            for name in ("loss", "crc", "stale", "reboot")
+            for name in ("loss", "crc", "stale", "reboot", "duplicate_sysid")
         }
         self._crc_prev: float | None = None
         self._crc_last_us: int | None = None
@@ -203,4 +206,9 @@ class LinkAlarmMonitor:
                 t_us - self._boot_last_us < self.p.reboot_hold_s * _US_PER_S)
             events += self._sm["reboot"].step(t_us, on, fault_type=lt, magnitude=boots,
                                               message="autopilot reboot")
+        if "duplicate_sysid" in stats:
+            dup = bool(stats["duplicate_sysid"])
+            events += self._sm["duplicate_sysid"].step(
+                t_us, dup, fault_type=lt, magnitude=float(dup),
+                message=f"two senders use system id {self.vehicle}")
         return events

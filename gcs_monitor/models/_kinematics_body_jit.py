@@ -1,4 +1,4 @@
-"""Numba versions of the body-frame GS model (Atmaca2025 eqs. 9-19, 25-27).
+"""Numba versions of the body-frame GS model (Atmaca2025 eqs. 9-19, 25-27, 51).
 
 The same equations as ``kinematics_body.py`` (the reference, checked against finite
 differences) written for numba; imported lazily by ``kinematics_body.compiled_kernels`` and
@@ -232,3 +232,32 @@ def prediction(
             for j in range(6):
                 B[i, j] = Phi[i, j]
             B[i, i] -= 1.0
+
+
+@jit
+def fault_from_drift_rate(r, x, out):
+    """``A(x)^{-1} r`` into ``out`` (6,); see ``kinematics_body.fault_from_drift_rate``."""
+    u, v, w, phi, theta = x[0], x[1], x[2], x[3], x[4]
+    sph, cph = math.sin(phi), math.cos(phi)
+    sth, cth = math.sin(theta), math.cos(theta)
+    fp = r[3] - sth * r[5]
+    fq = cph * r[4] + sph * cth * r[5]
+    fr = -sph * r[4] + cph * cth * r[5]
+    out[0] = r[0] - (v * fr - w * fq)
+    out[1] = r[1] - (w * fp - u * fr)
+    out[2] = r[2] - (u * fq - v * fp)
+    out[3] = fp
+    out[4] = fq
+    out[5] = fr
+
+
+@jit
+def fault_integral_step(x, mu, mu_prev, f_int):
+    """``f_int += A(x)^{-1} (mu - mu_prev)`` in place (``imu_hosm._fault_update``)."""
+    d = np.empty(6)
+    for i in range(6):
+        d[i] = mu[i] - mu_prev[i]
+    df = np.empty(6)
+    fault_from_drift_rate(d, x, df)
+    for i in range(6):
+        f_int[i] += df[i]

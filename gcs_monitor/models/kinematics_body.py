@@ -8,9 +8,19 @@ flat, non-rotating earth.
 
 The "approximate" model (eqs. 9-14) subtracts each fault estimate only where its sensor is *not*
 the one that drives the state's own drift: the accelerometer faults stay in ``A_m`` of eqs. 9-11,
-``p_m`` stays raw in eq. 12, ``q_m`` in eq. 13 and ``r_m`` in eq. 14. The predicted state therefore
-drifts at the rate :func:`own_drift_gain` times the true fault, which is what the HOSM
-differentiator turns back into the fault estimate (eqs. 47-51).
+``p_m`` stays raw in eq. 12, ``q_m`` in eq. 13 and ``r_m`` in eq. 14. A fault moves the state
+derivative by ``A(x) f`` (:func:`fault_input_matrix`, ``-G`` of eq. 15) and the estimates by
+``M(x) f_hat`` (:func:`fault_estimate_matrix`), so the predicted state drifts at
+``d mu / dt = A f + M f_hat``; that is the diagonal ``D f`` (:func:`own_drift_gain`) only once
+``f_hat = f``. :func:`fault_from_drift_rate` solves ``A(x) f = d mu / dt`` in closed form (the
+map the estimator uses, with ``f_hat = 0`` in the filter as eq. 20 prints it);
+:func:`drift_rate_to_fault` also keeps the diagonal maps.
+
+Checked against physics: with exact inputs and ``f_hat = 0`` eqs. 9-14 equal the flat,
+non-rotating limit of the GS-KM (``kinematics.py``, Lu2016 eq. 11) rotated into body axes,
+``d(C^T v_ned)/dt = C^T v_ned' - omega x v_b`` (tests/gcs_monitor/models/test_kinematics_body.py),
+and the simulator's truth in a 30 deg coordinated turn to 0.01-0.06 m/s^2 RMS
+(docs/papers-notes.md).
 
 All functions are pure and use plain float math (6-element models; numpy overhead dominates
 otherwise).
@@ -189,11 +199,12 @@ def body_gs_meas_jac(x: Vec) -> Mat:
 def own_drift_gain(euler_rad: Vec) -> Vec:
     """Rate at which each true IMU fault drives its own state's drift in eqs. 9-14.
 
-    With the other faults compensated (``f_hat ~ f``), the predicted state of eqs. 9-14 drifts
+    With the other faults compensated (``f_hat = f``), the predicted state of eqs. 9-14 drifts
     from the true state at ``d mu / dt = D f`` with
     ``D = diag(1, 1, 1, 1, cos phi, cos phi / cos theta)``: the raw ``A_m`` in eqs. 9-11, the raw
     ``p_m`` in eq. 12 (coefficient 1), ``q_m cos phi`` in eq. 13 and ``r_m cos phi / cos theta``
-    in eq. 14.
+    in eq. 14. ``D`` is the diagonal of :func:`fault_input_matrix`; it is the whole story only at
+    ``f_hat = f`` (see :func:`drift_rate_to_fault`).
 
     Returns
     -------
@@ -204,30 +215,108 @@ def own_drift_gain(euler_rad: Vec) -> Vec:
     return np.array([1.0, 1.0, 1.0, 1.0, cph, cph / cth])
 
 
-def drift_rate_to_fault(drift_rate: Vec, euler_rad: Vec, *, mapping: str = "flat") -> Vec:
-    """IMU fault estimate from the estimated state-drift rate (Atmaca2025 eqs. 46, 51).
+def fault_input_matrix(x: Vec) -> Mat:
+    """Fault input matrix ``A(x) = d f / d u_m`` of eqs. 9-14 (equal to ``-G(x)``, eq. 15).
 
-    Atmaca2025 eq. 51 sets the fault estimates equal to ``z_1``, the derivative of the drift
-    (``mapping="paper"``). Its own flatness argument (eqs. 43-46) says the two are *algebraically*
-    related; for eqs. 9-14 that relation is ``d mu / dt = D f`` (:func:`own_drift_gain`), so
-    ``mapping="flat"`` (the default) inverts ``D``. The two agree when ``phi = theta = 0`` and
-    differ by ``1 - cos(phi)`` in the pitch and yaw gyro channels (13 % at 30 deg of bank).
+    A sensor fault adds to the measurement (eq. 4, ``u_m = u + w + f``), so the model's
+    derivative moves by ``A f``: ``d mu / dt = A(x) f + M(x) f_hat`` with ``M`` of
+    :func:`fault_estimate_matrix`. ``A`` is full in a bank: ``q_m`` and ``r_m`` both enter
+    eqs. 13-14 (through ``cos phi`` and ``sin phi``), and every gyro enters eqs. 9-11 multiplied
+    by the ground speed.
+
+    Returns
+    -------
+    (6, 6) matrix, columns in the layout of ``u_m``
+    """
+    return -body_gs_noise_matrix(x)
+
+
+def fault_estimate_matrix(x: Vec) -> Mat:
+    """``M(x) = d f / d f_hat`` of eqs. 9-14: where the fault estimates enter the model.
+
+    Eqs. 9-14 subtract ``f_hat`` only in the cross terms, so ``M = D - A`` with ``A`` of
+    :func:`fault_input_matrix` and ``D = diag(`` :func:`own_drift_gain` ``)``.
+
+    Returns
+    -------
+    (6, 6) matrix, columns in the layout of ``f_hat``
+    """
+    M = -fault_input_matrix(x)
+    M[np.diag_indices(N_STATE)] += own_drift_gain(x[3:])
+    return M
+
+
+def fault_from_drift_rate(drift_rate: Vec, x: Vec) -> Vec:
+    """Solve ``A(x) f = drift_rate`` for the fault (:func:`fault_input_matrix`).
+
+    ``A`` is square and block upper triangular, ``[[I, [v]x], [0, W]]``, with ``W`` the
+    body-rate to Euler-rate matrix of eqs. 12-14 (``det A = det W = 1 / cos theta``). Its inverse
+    is closed form and has no singularity: ``f_omega = W^{-1} r_euler`` with
+    ``W^{-1} = [[1, 0, -sin theta], [0, cos phi, sin phi cos theta], [0, -sin phi,
+    cos phi cos theta]]`` (Euler rates to body rates), then ``f_A = r_vel - v x f_omega``. No
+    least squares is needed.
+
+    Parameters
+    ----------
+    drift_rate : (6,) ``d s / dt`` (m/s^2 and rad/s), layout of the state
+    x : (6,) state at which ``A`` is evaluated
+
+    Returns
+    -------
+    (6,) [f_Ax, f_Ay, f_Az (m/s^2), f_p, f_q, f_r (rad/s)]
+    """
+    u, v, w, phi, theta, _ = (float(a) for a in x)
+    r = [float(a) for a in drift_rate]
+    sph, cph = math.sin(phi), math.cos(phi)
+    sth, cth = math.sin(theta), math.cos(theta)
+    fp = r[3] - sth * r[5]
+    fq = cph * r[4] + sph * cth * r[5]
+    fr = -sph * r[4] + cph * cth * r[5]
+    return np.array(
+        [
+            r[0] - (v * fr - w * fq),
+            r[1] - (w * fp - u * fr),
+            r[2] - (u * fq - v * fp),
+            fp,
+            fq,
+            fr,
+        ]
+    )
+
+
+def drift_rate_to_fault(drift_rate: Vec, x: Vec, *, mapping: str = "exact") -> Vec:
+    """IMU fault estimate from the HOSM derivative ``z_1`` (Atmaca2025 eqs. 46, 51).
+
+    ``mapping="exact"`` (default): ``d mu / dt = A(x) f`` for a drift of the model with
+    ``f_hat = 0`` (eq. 20 as printed); the fault is ``A(x)^{-1} z_1`` (:func:`fault_from_drift_rate`).
+    (The estimator applies the same linear map to each drift increment before differentiating,
+    ``estimators/imu_hosm.py``, so that its ``z_1`` is the fault itself.)
+
+    ``mapping="flat"`` (``z_1 / D``) and ``"paper"`` (``z_1``, eq. 51 as printed) are for the
+    drift of eqs. 9-14 *with* ``f_hat`` in the cross terms. Both assume ``d mu / dt = D f``, which holds only at ``f_hat = f``; otherwise
+    ``d mu / dt = D f_hat + A (f - f_hat)``, so in a bank (``A`` not diagonal) the gyro estimates
+    feed back through the ``sin phi`` terms of eqs. 13-14 with loop gain ``tan phi`` (and into
+    eqs. 9-11 times the ground speed). Measured in a 30 deg coordinated turn: a sustained ~1 Hz
+    oscillation of 0.8 deg/s on f_q/f_r and 2.6 m/s^2 on f_Ay/f_Az with zero true fault
+    (docs/papers-notes.md, Atmaca2025). Kept to reproduce the paper and earlier results.
 
     Parameters
     ----------
     drift_rate : (6,) ``z_1`` of the HOSM differentiator (m/s^2 and rad/s)
-    euler_rad : (3,) [phi, theta, psi] (rad)
-    mapping : ``"flat"`` or ``"paper"``
+    x : (6,) current state estimate [u, v, w (m/s, FRD), phi, theta, psi (rad)]
+    mapping : ``"exact"``, ``"flat"`` or ``"paper"``
 
     Returns
     -------
     (6,) [f_Ax, f_Ay, f_Az, f_p, f_q, f_r]
     """
+    if mapping == "exact":
+        return fault_from_drift_rate(drift_rate, x)
     if mapping == "paper":
         return np.array(drift_rate, dtype=np.float64)
     if mapping != "flat":
         raise ValueError(f"unknown drift-to-fault mapping {mapping!r}")
-    return np.asarray(drift_rate, dtype=np.float64) / own_drift_gain(euler_rad)
+    return np.asarray(drift_rate, dtype=np.float64) / own_drift_gain(x[3:])
 
 
 # ---------------------------------------------------------------------------------------------
@@ -245,6 +334,8 @@ class CompiledBodyGs(Protocol):
     def noise_matrix(self, x: Vec, G: Mat) -> None: ...
     def measurement(self, x: Vec, h: Vec, H: Mat) -> None: ...
     def prediction(self, *args: object) -> None: ...
+    def fault_integral_step(self, x: Vec, mu: Vec, mu_prev: Vec, f_int: Vec) -> None: ...
+    def fault_from_drift_rate(self, r: Vec, x: Vec, out: Vec) -> None: ...
 
 
 def compiled_kernels() -> CompiledBodyGs | None:

@@ -627,6 +627,7 @@ class FrameAssembler:
                 f.gps_new = True
         fix_ok = self._gps_fix < 0 or self._gps_fix >= GPS_FIX_3D
         f.gps_vel_ned_mps = g.vel_ned_mps if fix_ok else None
+        f.gps_held = g.vel_ned_mps is not None and not g.interpolated
         f.gps_fix = self._gps_fix
         self.frames_out += 1
         return f

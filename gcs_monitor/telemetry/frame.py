@@ -50,6 +50,9 @@ class Frame:
     gps_age_s: float = float("inf")
     gps_delay_us: int = 0
     gps_new: bool = False  # a GPS sample arrived since the previous frame
+    # the velocity is the newest GPS sample held past its time (no later sample brackets the
+    # query instant), i.e. a measurement of t_us - gps_age_s, not of t_us
+    gps_held: bool = False
     lat_rad: float = float("nan")
     lon_rad: float = float("nan")
     alt_msl_m: float = float("nan")

@@ -87,6 +87,32 @@ def truth_at(t: float, g_mps2: float) -> tuple[Vec, Vec, Vec]:
     return x, u, vel_ned
 
 
+TURN_SPEED_MPS = 125.0
+TURN_BANK_RAD = math.radians(30.0)
+TURN_PITCH_RAD = math.radians(3.0)
+
+
+def turn_truth_at(t: float, g_mps2: float) -> tuple[Vec, Vec, Vec]:
+    """Steady level coordinated turn (same outputs as :func:`truth_at`).
+
+    Constant bank and pitch, ground speed ``TURN_SPEED_MPS`` along the heading, turn rate
+    ``Omega = g tan(phi) / V``: ``psi = 0.2 + Omega t``, so the body-axis ground velocity is
+    constant and the NED velocity rotates, ``v_ned' = Omega [-v_E, v_N, 0]``.
+    """
+    V, phi, theta = TURN_SPEED_MPS, TURN_BANK_RAD, TURN_PITCH_RAD
+    om = g_mps2 * math.tan(phi) / V
+    psi = 0.2 + om * t
+    vel_ned = np.array([V * math.cos(psi), V * math.sin(psi), 0.0])
+    acc_ned = om * np.array([-vel_ned[1], vel_ned[0], 0.0])
+    sph, cph = math.sin(phi), math.cos(phi)
+    sth, cth = math.sin(theta), math.cos(theta)
+    C = dcm_ned_frd(phi, theta, psi)
+    spec = C.T @ (acc_ned - np.array([0.0, 0.0, g_mps2]))
+    x = np.concatenate([C.T @ vel_ned, [phi, theta, psi]])
+    u = np.concatenate([spec, [-om * sth, om * cth * sph, om * cth * cph]])
+    return x, u, vel_ned
+
+
 def _in(t: float, w: tuple[float, float]) -> bool:
     return w[0] < t < w[1]
 
@@ -149,8 +175,10 @@ def make_run(
     faults: FaultFn = no_faults,
     seed: int = 0,
     noise: AtmacaSensorNoise | None = None,
+    truth: Callable[[float, float], tuple[Vec, Vec, Vec]] = truth_at,
 ) -> SynthRun:
-    """Build Frames for ``duration_s`` of flight with the given fault function (seeded)."""
+    """Build Frames for ``duration_s`` of flight with the given fault function (seeded);
+    ``truth`` is :func:`truth_at` (S-turn) or :func:`turn_truth_at` (steady turn)."""
     nz = noise if noise is not None else AtmacaSensorNoise()
     rng = np.random.default_rng(seed)
     g = gravity_mps2(LAT_RAD, ALT_M)
@@ -161,7 +189,7 @@ def make_run(
     gps_dt = 1.0 / nz.gps_rate_hz
     n_gps = int(math.ceil(duration_s / gps_dt)) + 2
     t_gps = np.arange(n_gps) * gps_dt
-    v_gps = np.array([truth_at(float(tg), g)[2] for tg in t_gps])
+    v_gps = np.array([truth(float(tg), g)[2] for tg in t_gps])
     v_gps += rng.normal(0.0, nz.gps_vel_sigma_mps, v_gps.shape)
     x_true = np.empty((n, 6))
     u_true = np.empty((n, 6))
@@ -170,7 +198,7 @@ def make_run(
     imu_sig = np.array([nz.acc_sigma_mps2] * 3 + [nz.gyro_sigma_radps] * 3)
     att_sig = np.array([nz.phi_theta_sigma_rad] * 2 + [nz.psi_sigma_rad])
     for i, t in enumerate(t_s):
-        x, u, _ = truth_at(float(t), g)
+        x, u, _ = truth(float(t), g)
         f = faults(float(t))
         x_true[i], u_true[i], f_true[i] = x, u, f
         u_m = u + rng.normal(0.0, 1.0, 6) * imu_sig + f

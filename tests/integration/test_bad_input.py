@@ -147,6 +147,7 @@ def test_second_vehicle_with_the_same_sysid(base_packets):
     r = run_monitor(join(merged))
     lk = r.health["vehicles"]["1"]["link"]
     assert lk["duplicate_sysid"]
+    assert r.link_alarms("duplicate_sysid")  # its own LINK alarm, never a sensor fault
     assert r.sensor_alarms == []
 
 

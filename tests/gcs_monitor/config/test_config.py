@@ -27,6 +27,17 @@ def test_units_converted_once(tmp_path):
     assert c.fdi.cas.threshold == pytest.approx(10 * 1852 / 3600, rel=1e-12)
 
 
+def test_imu_hosm_thresholds_are_their_own_keys(tmp_path):
+    c = load_config(_write(tmp_path, "[estimators]\nimu_hosm = true\n"
+                           "[fdi.acc_hosm]\nthreshold_mps2 = 0.9\n"
+                           "[fdi.gyro_hosm]\nthreshold_degps = 0.8\n"))
+    assert c.estimators.imu_hosm
+    assert c.fdi.acc_hosm.threshold == pytest.approx(0.9, rel=1e-12)
+    assert c.fdi.gyro_hosm.threshold == pytest.approx(math.radians(0.8), rel=1e-12)
+    # the ATSEKF thresholds are untouched
+    assert c.fdi.acc.threshold == load_config(None).fdi.acc.threshold
+
+
 @pytest.mark.parametrize(
     ("text", "match"),
     [
@@ -38,6 +49,10 @@ def test_units_converted_once(tmp_path):
         ("[telemetry]\ngps_delay_s = 'x'\n", r"must be a non-negative number"),
         ("[fdi]\nbaro = {}\n", r"unknown key 'fdi.baro'"),
         ("x = [", r"not valid TOML"),
+        ("[fdi.gyro_hosm]\nthreshold_mps2 = 0.5\n", r"given as 'threshold_degps'"),
+        ("[fdi.acc_hosm]\nthreshold_mps2 = -1\n",
+         r"'fdi.acc_hosm.threshold_mps2' must be a positive"),
+        ("[fdi.acc_hosm]\nn_detect = 60\n", r"must not exceed n_eval"),
     ],
 )
 def test_invalid_config_names_file_and_key(tmp_path, text, match):
@@ -45,3 +60,11 @@ def test_invalid_config_names_file_and_key(tmp_path, text, match):
     with pytest.raises(ConfigError, match=match) as ei:
         load_config(p)
     assert str(p) in str(ei.value)
+
+
+def test_shipped_imu_hosm_config_loads():
+    from pathlib import Path
+
+    c = load_config(Path(__file__).parents[3] / "configs" / "imu_hosm.toml")
+    assert c.estimators.imu_hosm and not c.estimators.imu_ts
+    assert c.fdi.acc_hosm.threshold == load_config(None).fdi.acc_hosm.threshold

@@ -1,0 +1,174 @@
+"""Input validity and measurement step gating for the IMU fault estimators (Lu2016 GS-KM).
+
+Two things on real flight data are not IMU faults but look like them to a filter whose only
+fault model is "the IMU is wrong" (Lu2016 eqs. 5-8, faults added to the measured input):
+
+1. **The input changes faster than the sample rate resolves.** The filter integrates the GS-KM
+   (Lu2016 eq. 31) with the IMU linear between samples (Heun). If the specific force steps inside
+   a sample interval (a catapult stroke: 0 -> 60 m/s^2 within one 20 ms sample), the true
+   velocity increment lies anywhere between the zero-order-hold and the first-order-hold
+   integrals; the difference is up to ``dt |Delta^2 u| / 2`` (for a step from a constant input
+   the backward second difference ``Delta^2 u_k = u_k - 2 u_{k-1} + u_{k-2}`` equals the step;
+   for an input smooth on the sample scale it is ``u'' dt^2``, negligible). That uncertainty is
+   process noise, not a fault: :func:`intra_sample_input_var` adds it to the input noise Q of
+   that one step (Lu2016 eq. 56), only for the part of ``|Delta^2 u|`` that the sensor noise
+   cannot explain (white noise gives ``std(Delta^2 u) = sqrt(6) sigma``). The covariance
+   matching of eq. 53 subtracts the same Q, so the adapted Q^f does not open either.
+
+2. **The velocity or attitude reference jumps** (a GNSS/INS estimator reset, a GPS glitch). A
+   step in one sample that the integrated IMU cannot explain is tested on the one-step
+   increment, not on the innovation: for an accelerometer fault of size b the increment of the
+   measured velocity differs from the IMU-predicted increment by ``b dt`` per sample, for a step
+   of the reference by the step itself in one sample (the same for the Euler angles and a gyro
+   fault). :class:`MeasurementStepGate` rejects a measurement group (velocity, or attitude)
+   whose increment mismatch exceeds :func:`step_bound` (noise, intra-sample term and the
+   largest fault step the fault model admits), and decides on the next sample: back to the
+   state (a spike: accept), or a persistent offset with a consistent increment (a step:
+   re-anchor those states on the measurement, keep the fault estimates). Lu2016 has no such
+   gate (its sec. 5 flight data have no resets); a fault step beyond the admitted one is
+   outside the fault model of Lu2016 sec. 3.1 (random walk with the prior of FaultPrior).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from enum import Enum
+
+import numpy as np
+
+from gcs_monitor.core.types import Vec
+
+SQRT6 = math.sqrt(6.0)  # std of the second difference of unit white noise
+
+
+@dataclass(frozen=True, slots=True)
+class GateConfig:
+    """Settings of the input-validity term and the velocity step gate.
+
+    Attributes
+    ----------
+    gate_sigma : gate in standard deviations for both tests
+    acc_fault_step_max_mps2 : largest accelerometer fault step (per sample) the fault model is
+        meant to reconstruct; a velocity increment mismatch beyond ``dt`` times this plus the
+        noise gate is not an IMU fault. Default: 3 sigma of the fault prior of
+        :class:`gcs_monitor.estimators.imu_ts.FaultPrior` (5 m/s^2), i.e. 15 m/s^2.
+    gyro_fault_step_max_radps : the same for the gyro and the Euler angles: 3 x 5 deg/s.
+    max_rejected_n : after this many consecutive rejected samples the gate re-anchors anyway
+        (a mismatch that persists in the increments is an acceleration error, not a step)
+    enabled : False turns both mechanisms off (the plain Lu2016 filter)
+    """
+
+    gate_sigma: float = 3.0
+    acc_fault_step_max_mps2: float = 15.0
+    gyro_fault_step_max_radps: float = 15.0 * math.pi / 180.0
+    max_rejected_n: int = 25
+    enabled: bool = True
+
+    def __post_init__(self) -> None:
+        if not self.gate_sigma > 0.0:
+            raise ValueError(f"gate_sigma must be > 0, got {self.gate_sigma}")
+        if self.acc_fault_step_max_mps2 < 0.0 or self.gyro_fault_step_max_radps < 0.0:
+            raise ValueError("acc_fault_step_max_mps2 and gyro_fault_step_max_radps must be >= 0")
+        if self.max_rejected_n < 1:
+            raise ValueError("max_rejected_n must be >= 1")
+
+
+def intra_sample_excess_var(u_km2: Sequence[float], u_km1: Sequence[float],
+                            u_k: Sequence[float], floor: Sequence[float]) -> list[float] | None:
+    """:func:`intra_sample_input_var` on plain floats for the per-sample path; ``floor`` is
+    ``gate_sigma sqrt(6) sigma`` per channel. None when no channel exceeds its floor."""
+    out = None
+    for i, (a, b, c, f) in enumerate(zip(u_km2, u_km1, u_k, floor, strict=True)):
+        excess = abs(c - 2.0 * b + a) - f
+        if excess > 0.0:
+            if out is None:
+                out = [0.0] * len(floor)
+            out[i] = 0.25 * excess * excess
+    return out
+
+
+def intra_sample_input_var(u_km2: Vec, u_km1: Vec, u_k: Vec, sigma: Vec, gate_sigma: float
+                           ) -> Vec:
+    """Extra input variance of one step from the unresolved intra-sample input profile.
+
+    ``excess = max(0, |u_k - 2 u_{k-1} + u_{k-2}| - gate_sigma sqrt(6) sigma)`` per channel,
+    variance ``(excess / 2)^2`` (the midpoint of the ZOH/FOH bracket, see module docstring).
+
+    Parameters
+    ----------
+    u_km2, u_km1, u_k : (b,) measured inputs at k-2, k-1, k (SI)
+    sigma : (b,) 1-sigma input noise (SI)
+    gate_sigma : noise gate
+    """
+    floor = (gate_sigma * SQRT6 * np.asarray(sigma, dtype=np.float64)).tolist()
+    v = intra_sample_excess_var(np.asarray(u_km2).tolist(), np.asarray(u_km1).tolist(),
+                                np.asarray(u_k).tolist(), floor)
+    return np.zeros(len(floor)) if v is None else np.array(v)
+
+
+def step_bound(s_diag: Sequence[float], extra_input_var: Sequence[float], dt_s: float,
+               gate_sigma: float, fault_step_max: float) -> float:
+    """Largest one-step increment mismatch (norm) an IMU fault can explain.
+
+    ``gate_sigma sqrt(2 tr S + dt^2 sum(extra_input_var)) + dt fault_step_max``: the increment
+    mismatch is the difference of two innovations (variance <= 2 S each), plus the intra-sample
+    input uncertainty of :func:`intra_sample_input_var` integrated over ``dt``, plus the
+    largest admitted fault step times ``dt``. For the velocity group (m/s): accelerometer
+    variances and ``acc_fault_step_max_mps2``; for the attitude group (rad): gyro variances
+    and ``gyro_fault_step_max_radps`` (Euler rates ~ body rates for moderate pitch).
+
+    Parameters
+    ----------
+    s_diag : (3,) innovation variances of the group's rows
+    extra_input_var : (3,) extra input variance of this step (:func:`intra_sample_input_var`)
+    dt_s : sample interval (s)
+    """
+    noise = 2.0 * math.fsum(s_diag) + dt_s * dt_s * math.fsum(extra_input_var)
+    return gate_sigma * math.sqrt(noise) + dt_s * fault_step_max
+
+
+class GateDecision(str, Enum):
+    ACCEPT = "accept"
+    REJECT = "reject"  # velocity not used this sample (predict with the IMU only)
+    REANCHOR = "reanchor"  # velocity states set to the measurement, fault estimates kept
+
+
+class MeasurementStepGate:
+    """Decision on each sample of one measurement group (module docstring, item 2).
+
+    ``decide(nu, r_prev, bound)`` with ``nu`` the group's innovation of this sample (measured
+    minus predicted), ``r_prev`` the previous sample's measured minus estimated value, so that
+    ``nu - r_prev`` is the increment mismatch (measured increment minus IMU-predicted increment).
+    """
+
+    def __init__(self, cfg: GateConfig) -> None:
+        self.cfg = cfg
+        self.pending = False
+        self.n_rejected = 0
+        self.last_step = 0.0  # increment mismatch that opened the last rejection (norm)
+
+    def reset(self) -> None:
+        self.pending = False
+        self.n_rejected = 0
+
+    def decide(self, nu: Sequence[float], r_prev: Sequence[float], bound: float
+               ) -> GateDecision:
+        """``nu``, ``r_prev``: (3,) as in the class docstring (plain floats or arrays)."""
+        inc = math.hypot(*(a - b for a, b in zip(nu, r_prev, strict=True)))
+        if not self.pending:
+            if inc <= bound:
+                return GateDecision.ACCEPT
+            self.pending = True
+            self.n_rejected = 1
+            self.last_step = inc
+            return GateDecision.REJECT
+        if math.hypot(*nu) <= bound:  # back on the state: it was a spike
+            self.reset()
+            return GateDecision.ACCEPT
+        if inc <= bound or self.n_rejected >= self.cfg.max_rejected_n:
+            self.reset()  # the offset persists with consistent increments: a step
+            return GateDecision.REANCHOR
+        self.n_rejected += 1
+        return GateDecision.REJECT
