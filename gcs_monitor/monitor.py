@@ -104,6 +104,7 @@ class Monitor:
             imu, airdata = self.estimators_for(v.sysid)
             v.pipeline = VehiclePipeline(v.sysid, self.cfg, imu_estimators=imu, airdata=airdata,
                                          sinks=list(self.sinks_for(v.sysid)))
+            v.pipeline.channel_status = self._channel_status(v.pipeline)
             v.link_alarms = LinkAlarmMonitor(vehicle=v.sysid)
             log.info("vehicle %d: pipeline started", v.sysid)
         return v.pipeline
@@ -112,17 +113,23 @@ class Monitor:
         """Decode a chunk and run every Frame it completes; return the alarm events."""
         out: list[AlarmEvent] = []
         raw = self.raw_sink
+        last_sysid = -1  # messages of one vehicle come in runs: look its state up once per run
+        v: VehicleState | None = None
+        push: Callable[[Any], list[Any]] | None = None
         for msg in self.decoder.feed(data, wall_s):
             if raw is not None:
                 msg._timestamp = wall_s
                 raw(msg)
             sysid = msg._header.srcSystem
-            if sysid in GCS_SYSIDS:
-                continue
-            v = self._vehicle(sysid)
-            frames = v.assembler.push(msg)
+            if sysid != last_sysid:
+                if sysid in GCS_SYSIDS:
+                    continue
+                v = self._vehicle(sysid)
+                push = v.assembler.push
+                last_sysid = sysid
+            frames = push(msg)  # type: ignore[misc]
             if frames:
-                out += self._run(v, frames)
+                out += self._run(v, frames)  # type: ignore[arg-type]
         return out
 
     def _run(self, v: VehicleState, frames: Iterable[Any]) -> list[AlarmEvent]:
@@ -138,6 +145,7 @@ class Monitor:
             pipe = v.pipeline = VehiclePipeline(v.sysid, self.cfg,
                                                 imu_estimators=pipe.imu_estimators,
                                                 airdata=pipe.airdata, sinks=pipe.sinks)
+            pipe.channel_status = self._channel_status(pipe)
             # vehicle time restarted: without this no link check (and no LINK/reboot alarm)
             # would run until the new clock passed the old one
             v.next_link_check_us = 0
@@ -156,6 +164,10 @@ class Monitor:
                 self.on_step(v.sysid, frame, step)
         self.events += out
         return out
+
+    def _channel_status(self, pipe: VehiclePipeline) -> bool:
+        """Per-channel status records are built only when a sink or ``on_step`` reads them."""
+        return bool(pipe.sinks) or self.on_step is not None
 
     def _link_stats(self, v: VehicleState) -> dict[str, float]:
         st = v.assembler.stats

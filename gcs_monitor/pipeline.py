@@ -33,6 +33,7 @@ from gcs_monitor.fdi.events import (
 )
 from gcs_monitor.fdi.isolation import consensus_residuals
 from gcs_monitor.fdi.monitor import (
+    ChannelBank,
     ChannelMonitor,
     ChannelMonitorParams,
     RedundantSetMonitor,
@@ -107,6 +108,11 @@ class MheMeasurementFusion:
         return sum(wi * x for wi, x in zip(w, measured, strict=True) if wi), tuple(w)
 
 
+def _floats(x: Any) -> list[float]:
+    """A Frame's per-instance array as a list of Python floats."""
+    return x.tolist() if isinstance(x, np.ndarray) else [float(v) for v in x]
+
+
 def set_params(name: str, cfg: SetConfig, dt_s: float) -> SetMonitorParams:
     return SetMonitorParams(
         threshold=cfg.threshold, noise_sigma=SET_NOISE[name],
@@ -179,6 +185,13 @@ class VehiclePipeline:
                                                 AIR_WEIGHT_FLOOR_RATIO)
         self.frames = 0
         self.active: dict[ChannelId, AlarmEvent] = {}
+        # Per-channel ChannelStatus records in PipelineStep.channels; the Monitor turns them off
+        # when neither a sink nor an on_step callback reads them (alarms are the same either way)
+        self.channel_status = True
+        # estimator name -> (fault channel ids, their monitors, their ChannelBank) in the order
+        # of Estimate.faults
+        self._banks: dict[str, tuple[tuple[ChannelId, ...], list[ChannelMonitor],
+                                     ChannelBank | None]] = {}
 
     def _channel(self, estimator: str, ch: ChannelId) -> ChannelMonitor:
         key = (estimator, ch)
@@ -219,10 +232,30 @@ class VehiclePipeline:
                 self._est_judging.add(e.name)
                 if e.name in self._est_event:
                     out.events.append(self._reinit_event(frame.t_us, e, AlarmState.CLEARED))
-            for ch, value in e.faults.items():
-                st, ev = self._channel(e.name, ch).step(frame.t_us, value, judged)
-                out.channels.append(st)
-                out.events += ev
+            faults = e.faults
+            bank = self._banks.get(e.name)
+            chans = tuple(faults)
+            if bank is None or bank[0] != chans:  # same ids: identity compare, no hashing
+                mons = [self._channel(e.name, ch) for ch in chans]
+                # one numba call for all channels (None without numba: monitor by monitor)
+                bank = self._banks[e.name] = (chans, mons, ChannelBank.create(mons))
+            t_us = frame.t_us
+            if bank[2] is not None:
+                ev = bank[2].update(t_us, list(faults.values()), judged,
+                                    out.channels if self.channel_status else None)
+                if ev:
+                    out.events += ev
+            elif self.channel_status:
+                for mon, value in zip(bank[1], faults.values()):
+                    st, ev = mon.step(t_us, value, judged)
+                    out.channels.append(st)
+                    if ev:
+                        out.events += ev
+            else:
+                for mon, value in zip(bank[1], faults.values()):
+                    ev = mon.update(t_us, value, judged)
+                    if ev:
+                        out.events += ev
         if frame.air_new:
             out.sets = self._air_step(frame, out)
             self._last_sets = out.sets
@@ -253,22 +286,26 @@ class VehiclePipeline:
         return ev
 
     def _air_step(self, frame: Frame, out: PipelineStep) -> list[SetStatus]:
-        aoa_valid = np.isfinite(frame.aoa_rad) & (frame.aoa_age_s < self.cfg.telemetry.stale_after_s)
-        cas_valid = np.isfinite(frame.cas_mps) & (frame.cas_age_s < self.cfg.telemetry.stale_after_s)
+        # Python floats and lists: numpy per-call overhead dominates for three instances
+        stale = self.cfg.telemetry.stale_after_s
+        n_a, n_c = self.aoa_set.n, self.cas_set.n
+        aoa = _floats(frame.aoa_rad)[:n_a]
+        cas = _floats(frame.cas_mps)[:n_c]
+        aoa_valid = [math.isfinite(x) and a < stale
+                     for x, a in zip(aoa, _floats(frame.aoa_age_s))]
+        cas_valid = [math.isfinite(x) and a < stale
+                     for x, a in zip(cas, _floats(frame.cas_age_s))]
         aoa_ref = self._aoa_pred if math.isfinite(self._aoa_pred) else None
         cas_ref = self._cas_pred if math.isfinite(self._cas_pred) else None
-        s_aoa, ev_a = self.aoa_set.step(frame.t_us, frame.aoa_rad[: self.aoa_set.n],
-                                        aoa_valid[: self.aoa_set.n], aoa_ref)
-        s_cas, ev_c = self.cas_set.step(frame.t_us, frame.cas_mps[: self.cas_set.n],
-                                        cas_valid[: self.cas_set.n], cas_ref)
-        out.events += ev_a + ev_c
+        s_aoa, ev_a = self.aoa_set.step(frame.t_us, aoa, aoa_valid, aoa_ref)
+        s_cas, ev_c = self.cas_set.step(frame.t_us, cas, cas_valid, cas_ref)
+        if ev_a or ev_c:
+            out.events += ev_a + ev_c
         if self.airdata is not None:
             # eq. 19 on independent weights (MheMeasurementFusion); Table I / sec. V-C: a lost
             # set (no healthy instance) removes its row of C.
-            aoa_f, w_a = self._aoa_fusion.step(list(s_aoa.measured),
-                                               aoa_valid.tolist()[: self.aoa_set.n], s_aoa)
-            cas_f, w_c = self._cas_fusion.step(list(s_cas.measured),
-                                               cas_valid.tolist()[: self.cas_set.n], s_cas)
+            aoa_f, w_a = self._aoa_fusion.step(list(s_aoa.measured), aoa_valid, s_aoa)
+            cas_f, w_c = self._cas_fusion.step(list(s_cas.measured), cas_valid, s_cas)
             s_aoa = dataclasses.replace(s_aoa, fused=math.nan if aoa_f is None else aoa_f,
                                         weights=w_a)
             s_cas = dataclasses.replace(s_cas, fused=math.nan if cas_f is None else cas_f,

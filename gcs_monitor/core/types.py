@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
@@ -24,6 +24,19 @@ class ChannelId:
     kind: str
     instance: int = 0
     axis: str = ""
+    # hash of (kind, instance, axis), computed once: channel ids key the per-sample dicts of
+    # every Estimate, so the generated __hash__ (a tuple hash per lookup) showed in profiles
+    _hash: int = field(init=False, repr=False, compare=False, default=0)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "_hash", hash((self.kind, self.instance, self.axis)))
+
+    def __hash__(self) -> int:
+        return self._hash
+
+    def __reduce__(self) -> tuple[type[ChannelId], tuple[str, int, str]]:
+        # rebuilt through __init__: string hashes differ between processes (PYTHONHASHSEED)
+        return (ChannelId, (self.kind, self.instance, self.axis))
 
     def __str__(self) -> str:
         base = f"{self.kind}{self.instance}"

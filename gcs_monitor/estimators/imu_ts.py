@@ -17,6 +17,7 @@ import numpy as np
 from gcs_monitor.core.atmosphere import tas_from_cas
 from gcs_monitor.core.types import ChannelId, Mat, Vec
 from gcs_monitor.estimators.base import Estimate
+from gcs_monitor.core.atmosphere import gravity_mps2
 from gcs_monitor.estimators.gating import (
     GateConfig,
     GateDecision,
@@ -27,13 +28,14 @@ from gcs_monitor.estimators.gating import (
 )
 from gcs_monitor.filters.ekf import Innovation
 from gcs_monitor.filters.two_stage import (
+    PackedTwoStage,
     TwoStageConfig,
     TwoStageNoise,
     TwoStageState,
     two_stage_init,
     two_stage_step,
 )
-from gcs_monitor.models.kinematics import AsKm, GsKm
+from gcs_monitor.models.kinematics import AsKm, GsKm, compiled_gs_km
 from gcs_monitor.telemetry.frame import Frame
 
 log = logging.getLogger(__name__)
@@ -43,6 +45,16 @@ FAULT_CHANNELS = (
     ChannelId("acc", 0, "x"), ChannelId("acc", 0, "y"), ChannelId("acc", 0, "z"),
     ChannelId("gyro", 0, "p"), ChannelId("gyro", 0, "q"), ChannelId("gyro", 0, "r"),
 )  # fmt: skip
+
+_EULER_CHANNELS = (
+    ChannelId("euler", 0, "phi"), ChannelId("euler", 0, "theta"), ChannelId("euler", 0, "psi"),
+)  # fmt: skip
+RESIDUAL_CHANNELS_GS = (
+    ChannelId("gps_vel", 0, "n"), ChannelId("gps_vel", 0, "e"), ChannelId("gps_vel", 0, "d"),
+) + _EULER_CHANNELS  # fmt: skip
+RESIDUAL_CHANNELS_AS = (ChannelId("tas", 0), ChannelId("aoa", 0), ChannelId("ssa", 0)) + (
+    _EULER_CHANNELS
+)
 
 
 @dataclass(frozen=True, slots=True)
@@ -118,6 +130,11 @@ class ImuTsConfig:
     reanchor_warmup_s: float = 2.0
 
 
+def _all_finite(a: Vec) -> bool:
+    """``np.all(np.isfinite(a))`` for a short vector, on Python floats (cheaper at n = 3-6)."""
+    return all(map(math.isfinite, a.ravel().tolist() if isinstance(a, np.ndarray) else a))
+
+
 def _wrap_pi(a: float) -> float:
     return (a + math.pi) % (2.0 * math.pi) - math.pi
 
@@ -159,6 +176,18 @@ class ImuTwoStageEstimator:
         self._r_prev = [0.0] * 6  # previous measured minus estimated output (gates)
         self._t_prev_us = 0
         self._t_start_us = 0  # time of the last full (re)start
+        # Compiled hot path (GS-KM, numba): the model kernels write F, G and the propagated
+        # x_bar into these work arrays and PackedTwoStage runs the filter step in one call; the
+        # same equations and operations as two_stage_step (tests/.../test_imu_ts.py).
+        self._kin = compiled_gs_km() if self.cfg.model == "gs" and self._fcfg.compiled else None
+        self._packed: PackedTwoStage | None = None
+        if self._kin is not None and PackedTwoStage.available():
+            self._packed = PackedTwoStage(6, 6, 6, self._fcfg.window_n)
+            self._F = np.zeros((6, 6))
+            self._G = np.zeros((6, 6))
+            self._xb = np.zeros(6)
+            self._g_key = (math.nan, math.nan)
+            self._g = math.nan
 
     # -- protocol ------------------------------------------------------------------------------
     def reset(self) -> None:
@@ -183,9 +212,8 @@ class ImuTwoStageEstimator:
             what = "gps velocity" if cfg.model == "gs" else "air data (cas, aoa, ssa)"
             return Estimate.unavailable(self.name, frame.t_us, f"{what} missing or stale")
         u_m = np.concatenate([imu.acc_frd_mps2, imu.omega_frd_radps])
-        if not np.all(np.isfinite(u_m)):
+        if not _all_finite(u_m):
             return Estimate.unavailable(self.name, frame.t_us, "imu sample not finite")
-        model = self._model(frame)
         dt_s = (frame.t_us - self._t_prev_us) * 1e-6
         if self._state is None or self._u_prev is None or not 0.0 < dt_s <= cfg.max_dt_s:
             converged = frame.t_us - self._t_start_us >= cfg.start_warmup_s * 1e6
@@ -214,7 +242,11 @@ class ImuTwoStageEstimator:
             extra = intra_sample_excess_var(self._u_prev2, self._u_prev_l, u_l, self._d2_floor)
             if extra is not None:
                 noise = TwoStageNoise(Q=self._noise.Q + np.diag(extra), R=self._noise.R)
-        new, innov = two_stage_step(s, model, self._u_prev, u_m, y, dt_s, noise, self._fcfg)
+        model = self._model(frame)
+        if self._packed is not None and s.k >= self._fcfg.n_iterated_steps:
+            new, innov = self._step_packed(s, frame, u_m, y, dt_s, noise)
+        else:
+            new, innov = two_stage_step(s, model, self._u_prev, u_m, y, dt_s, noise, self._fcfg)
         why = ""
         if cfg.gate.enabled and cfg.model == "gs" and innov.numerics_ok:
             why, new, innov = self._gated(s, model, u_m, y, dt_s, noise, extra, new, innov)
@@ -239,6 +271,19 @@ class ImuTwoStageEstimator:
         return est
 
     # -- helpers -------------------------------------------------------------------------------
+    def _step_packed(self, s: TwoStageState, frame: Frame, u_m: Vec, y: Vec, dt_s: float,
+                     noise: TwoStageNoise) -> tuple[TwoStageState, Innovation]:
+        """``two_stage_step(s, GsKm(lat, alt), ...)`` through the compiled GS-KM and filter."""
+        assert self._kin is not None and self._packed is not None and self._u_prev is not None
+        lat, alt = frame.lat_rad, frame.alt_msl_m
+        if (lat, alt) != self._g_key:  # GsKm.propagate's gravity, once per GPS position
+            self._g_key = (lat, alt)
+            self._g = gravity_mps2(lat, alt)
+        kin = self._kin
+        kin.jacobians(s.x, self._u_prev - s.f, lat, alt, self._F, self._G)  # Lu2016 note 1
+        kin.propagate(s.x_bar, self._u_prev, u_m, lat, alt, self._g, dt_s, self._xb)  # eq. 31
+        return self._packed.step(s, self._F, self._G, self._xb, y, dt_s, noise, self._fcfg)
+
     def _model(self, frame: Frame) -> GsKm | AsKm:
         if self.cfg.model == "gs":
             return GsKm(frame.lat_rad, frame.alt_msl_m)
@@ -249,7 +294,7 @@ class ImuTwoStageEstimator:
         eul = np.asarray(frame.euler_rad, dtype=np.float64)
         if self.cfg.model == "gs":
             v = frame.gps_vel_ned_mps
-            if v is None or frame.gps_age_s > cfg.max_gps_age_s or not np.all(np.isfinite(v)):
+            if v is None or frame.gps_age_s > cfg.max_gps_age_s or not _all_finite(v):
                 return None
             if frame.gps_held and frame.gps_age_s > cfg.max_held_gps_age_s:
                 return None
@@ -373,19 +418,10 @@ class ImuTwoStageEstimator:
         u_hat = (u_m - s.f).tolist()  # Lu2016 eq. 60
         if self.cfg.model == "gs":
             states = {"vel_ned_mps": x[:3].copy(), "euler_rad": x[3:].copy()}
-            res_names: tuple[ChannelId, ...] = (
-                ChannelId("gps_vel", 0, "n"),
-                ChannelId("gps_vel", 0, "e"),
-                ChannelId("gps_vel", 0, "d"),
-            )
+            res_names = RESIDUAL_CHANNELS_GS
         else:
             states = {"vel_air_frd_mps": x[:3].copy(), "euler_rad": x[3:].copy()}
-            res_names = (ChannelId("tas", 0), ChannelId("aoa", 0), ChannelId("ssa", 0))
-        res_names = res_names + (
-            ChannelId("euler", 0, "phi"),
-            ChannelId("euler", 0, "theta"),
-            ChannelId("euler", 0, "psi"),
-        )
+            res_names = RESIDUAL_CHANNELS_AS
         nul = nu.tolist()
         return Estimate(
             name=self.name,

@@ -18,11 +18,13 @@ runs only when an alarm is raised and every ``reclassify_every_n`` samples while
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
+from gcs_monitor.core.optional import optional_module
 from gcs_monitor.core.types import ChannelId
 from gcs_monitor.fdi.alarms import AlarmParams, AlarmStateMachine
 from gcs_monitor.fdi.classify import ClassifierParams, classify_residual
@@ -317,31 +319,127 @@ class ChannelMonitor:
 
     def step(self, t_us: int, value: float, valid: bool) -> tuple[ChannelStatus, list[AlarmEvent]]:
         """Process one sample; an invalid or non-finite value holds J and the decision."""
-        th = self.p.threshold
-        events: list[AlarmEvent] = []
+        events = self.update(t_us, value, valid)
+        status = ChannelStatus(self.channel, t_us, value, self._J, self.p.threshold,
+                               self._faulty, self.estimator)
+        return status, events
+
+    def update(self, t_us: int, value: float, valid: bool) -> list[AlarmEvent]:
+        """:meth:`step` without building the :class:`ChannelStatus` (when nobody reads it)."""
         if valid and value == value and abs(value) != math.inf:
             self._J = self._rms.update(value)
             self._hist.push(value, math.nan)
             was = self._faulty
-            self._faulty = self._conf.update(self._J, th)
-            if self._faulty:
-                self._since_class += 1
-                if not was or self._since_class >= self.p.reclassify_every_n:
-                    self._since_class = 0
-                    r, _ = self._hist.ordered()
-                    if len(r) >= 4:
-                        c = classify_residual(np.asarray(r), self.p.dt_s, self._cp)
-                        ft, mag = c.fault_type, c.magnitude
-                    else:
-                        ft, mag = FaultType.UNKNOWN, value
-                    events = self._alarm.step(t_us, True, fault_type=ft, magnitude=mag,
-                                              rms=self._J, threshold=th,
-                                              message=f"{ft.value} {mag:.4g}")
-            elif was:
-                events = self._alarm.step(t_us, False, rms=self._J, threshold=th)
-        status = ChannelStatus(channel=self.channel, t_us=t_us, value=value, rms=self._J,
-                               threshold=th, faulty=self._faulty, estimator=self.estimator)
-        return status, events
+            self._faulty = self._conf.update(self._J, self.p.threshold)
+            if self._faulty or was:
+                return self._transitions(t_us, value, was, None)
+        return []
+
+    def _transitions(self, t_us: int, value: float, was: bool,
+                     residuals: Callable[[], Sequence[float]] | None) -> list[AlarmEvent]:
+        """Alarm transitions after the decision ``self._faulty`` (was ``was``) at ``t_us``;
+        ``residuals`` gives the history oldest first (None: this monitor's own)."""
+        th = self.p.threshold
+        if self._faulty:
+            self._since_class += 1
+            if not was or self._since_class >= self.p.reclassify_every_n:
+                self._since_class = 0
+                r = self._hist.ordered()[0] if residuals is None else residuals()
+                if len(r) >= 4:
+                    c = classify_residual(np.asarray(r), self.p.dt_s, self._cp)
+                    ft, mag = c.fault_type, c.magnitude
+                else:
+                    ft, mag = FaultType.UNKNOWN, value
+                return self._alarm.step(t_us, True, fault_type=ft, magnitude=mag, rms=self._J,
+                                        threshold=th, message=f"{ft.value} {mag:.4g}")
+            return []
+        if was:
+            return self._alarm.step(t_us, False, rms=self._J, threshold=th)
+        return []
+
+
+class ChannelBank:
+    """:meth:`ChannelMonitor.update` of several channels (one estimator's faults) in one call.
+
+    The RMS windows, histories and confirmations live in arrays updated by one numba kernel
+    (``fdi/_channels_jit.py``: the same arithmetic in the same order as :class:`ResidualRms`,
+    :class:`_History` and :class:`Confirmation`, exact re-summation included); alarm
+    transitions and classification run in Python through each channel's own
+    :class:`ChannelMonitor` (its alarm state machine, classifier, counters). A monitor given to a
+    bank is stepped only through the bank from then on (its own windows stay at their state).
+    :meth:`create` returns None when numba is missing or the monitors' window lengths differ.
+    """
+
+    def __init__(self, monitors: Sequence[ChannelMonitor], kern: Any) -> None:
+        self.monitors = list(monitors)
+        self._kern = kern
+        p0 = self.monitors[0].p
+        k = len(self.monitors)
+        self._recompute = p0.rms.recompute_every_n
+        self._threshold = np.array([m.p.threshold for m in self.monitors])
+        self._detect_n = np.array([m.p.confirmation.detect_n for m in self.monitors])
+        self._clear_ratio = np.array([m.p.confirmation.clear_ratio for m in self.monitors])
+        self._clear_n = np.array([m.p.confirmation.clear_n for m in self.monitors])
+        self._latch = np.array([m.p.confirmation.latch for m in self.monitors])
+        self._rms_buf = np.zeros((k, p0.rms.rms_window_n))
+        self._rms_sum = np.zeros(k)
+        self.J = np.zeros(k)
+        self._hist = np.zeros((k, p0.history_n))
+        self._conf_win = np.zeros((k, p0.confirmation.eval_n), dtype=np.uint8)
+        self._istate = np.zeros((k, kern.N_ISTATE), dtype=np.int64)
+        self._flags = np.zeros(k, dtype=np.int64)
+
+    @classmethod
+    def create(cls, monitors: Sequence[ChannelMonitor]) -> ChannelBank | None:
+        kern = optional_module("gcs_monitor.fdi._channels_jit")
+        if kern is None or not monitors:
+            return None
+        p0 = monitors[0].p
+        same = all(m.p.rms.rms_window_n == p0.rms.rms_window_n
+                   and m.p.rms.recompute_every_n == p0.rms.recompute_every_n
+                   and m.p.confirmation.eval_n == p0.confirmation.eval_n
+                   and m.p.history_n == p0.history_n for m in monitors)
+        return cls(monitors, kern) if same else None
+
+    def _residuals(self, c: int) -> Callable[[], Sequence[float]]:
+        def ordered() -> Sequence[float]:
+            ist = self._istate[c]
+            n = self._hist.shape[1]
+            count, idx = int(ist[self._kern.HIST_COUNT]), int(ist[self._kern.HIST_IDX])
+            row = self._hist[c]
+            if count < n:
+                return row[:count].tolist()
+            return row[idx:].tolist() + row[:idx].tolist()
+        return ordered
+
+    def update(self, t_us: int, values: Sequence[float], valid: bool,
+               statuses: list[ChannelStatus] | None = None) -> list[AlarmEvent]:
+        """One sample of every channel (``values`` in monitor order); returns the alarm events
+        and, with ``statuses``, appends each channel's :class:`ChannelStatus` to it."""
+        kern = self._kern
+        vals = np.array(values, dtype=np.float64)
+        any_flags = kern.bank_update(
+            vals, valid, self._threshold, self._recompute, self._detect_n, self._clear_ratio,
+            self._clear_n, self._latch, self._rms_buf, self._rms_sum, self.J, self._hist,
+            self._conf_win, self._istate, self._flags)
+        events: list[AlarmEvent] = []
+        if any_flags & (kern.WAS_FAULTY | kern.IS_FAULTY | kern.NON_FINITE):
+            for c, f in enumerate(self._flags.tolist()):
+                if f & kern.NON_FINITE:
+                    raise ValueError(f"non-finite residual {values[c]!r}; call skip() for "
+                                     "invalid samples")
+                if f & (kern.WAS_FAULTY | kern.IS_FAULTY):
+                    mon = self.monitors[c]
+                    mon._J = float(self.J[c])
+                    mon._faulty = bool(f & kern.IS_FAULTY)
+                    events += mon._transitions(t_us, values[c], bool(f & kern.WAS_FAULTY),
+                                               self._residuals(c))
+        if statuses is not None:
+            faulty = self._istate[:, kern.FAULTY].tolist()
+            for mon, v, j, fl in zip(self.monitors, values, self.J.tolist(), faulty, strict=True):
+                statuses.append(ChannelStatus(mon.channel, t_us, v, j, mon.p.threshold,
+                                              bool(fl), mon.estimator))
+        return events
 
 
 def calibrate(

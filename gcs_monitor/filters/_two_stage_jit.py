@@ -215,3 +215,70 @@ def update(x_pred, P_pred, hx, H, y, R, U, Pf_pred, f, gamma2, k, adapt, Gam, Q,
         s_diag,
         ratio,
     )
+
+
+@jit
+def _unpack(s, n, b, m, nwin):
+    """Views of a packed state: x_bar, P_bar, f, Pf, V, Qf, x, Px, gamma2 (TwoStageState order)."""
+    o = 0
+    x_bar = s[o:o + n]
+    o += n
+    P_bar = s[o:o + n * n].reshape((n, n))
+    o += n * n
+    f = s[o:o + b]
+    o += b
+    Pf = s[o:o + b * b].reshape((b, b))
+    o += b * b
+    V = s[o:o + n * b].reshape((n, b))
+    o += n * b
+    Qf = s[o:o + b * b].reshape((b, b))
+    o += b * b
+    x = s[o:o + n]
+    o += n
+    Px = s[o:o + n * n].reshape((n, n))
+    o += n * n
+    gamma2 = s[o:o + nwin * m].reshape((nwin, m))
+    return x_bar, P_bar, f, Pf, V, Qf, x, Px, gamma2
+
+
+@jit
+def step_identity_output(s_in, k, s_out, F, G, xb_prop, y, Q, R, adapt, dt, gate, nwin, out):
+    """One non-iterated step (:func:`predict` + :func:`update`) for an output ``h(x) = x``.
+
+    The same calls as ``two_stage._step_compiled`` with ``hx = x_pred``, ``H = I`` (Lu2016
+    eq. 14, GS-KM), on a packed state (``two_stage.pack_state`` layout) so that one call replaces
+    two kernel calls and a dozen boxed arrays. ``F``, ``G`` (eq. 34) and ``xb_prop`` (eq. 31
+    without ubar) come from the model. Writes the new state into ``s_out`` and
+    ``[nu (m), S_diag (m), test_ratio (m)]`` into ``out``. Returns 0 on success, 1 if the
+    prediction failed (``out`` unset), 2 if the update failed (``out`` as ``update`` left it).
+    """
+    n = F.shape[0]
+    b = G.shape[1]
+    m = y.shape[0]
+    x_bar0, P_bar0, f0, Pf0, V0, Qf0, _x0, _Px0, g20 = _unpack(s_in, n, b, m, nwin)
+    ok, Gam, U, ubar, P_pred, Pf_pred = predict(F, G, dt, V0, Pf0, Qf0, f0, P_bar0, Q)
+    if not ok:
+        return 1
+    x_pred = xb_prop + ubar  # eq. 31
+    hx = x_pred.copy()
+    H = np.eye(n)
+    res = update(x_pred, P_pred, hx, H, y, R, U, Pf_pred, f0, g20, k, adapt, Gam, Q, Qf0, dt,
+                 gate)
+    ok, x_bar, P_bar, f_new, Pf_new, V, x_hat, Px, gamma2, Qf_next, nu, s_diag, ratio = res
+    for i in range(m):
+        out[i] = nu[i]
+        out[m + i] = s_diag[i]
+        out[2 * m + i] = ratio[i]
+    if not ok:
+        return 2
+    xb1, Pb1, f1, Pf1, V1, Qf1, x1, Px1, g21 = _unpack(s_out, n, b, m, nwin)
+    xb1[:] = x_bar
+    Pb1[:, :] = P_bar
+    f1[:] = f_new
+    Pf1[:, :] = Pf_new
+    V1[:, :] = V
+    Qf1[:, :] = Qf_next
+    x1[:] = x_hat
+    Px1[:, :] = Px
+    g21[:, :] = gamma2
+    return 0

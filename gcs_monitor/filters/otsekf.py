@@ -266,6 +266,21 @@ def _step_reference(
     return new, innov
 
 
+_WRAP_MASKS: dict[tuple[int, tuple[int, ...]], NDArray[np.bool_]] = {}
+
+
+def _wrap_mask(m: int, wrap_idx: tuple[int, ...]) -> NDArray[np.bool_]:
+    """(m,) True at the wrapped components; built once per (m, wrap_idx), never written to."""
+    key = (m, wrap_idx)
+    mask = _WRAP_MASKS.get(key)
+    if mask is None:
+        mask = np.zeros(m, dtype=np.bool_)
+        for i in wrap_idx:
+            mask[i] = True
+        _WRAP_MASKS[key] = mask
+    return mask
+
+
 def _step_compiled(
     kern: _Kernels,
     s: OtsekfState,
@@ -290,9 +305,7 @@ def _step_compiled(
     ):  # fmt: skip
         return s, _bad_innovation(m)
     y_pred, H = meas_fn(x_hat_pred)
-    wrap = np.zeros(m, dtype=np.bool_)
-    for i in wrap_idx:
-        wrap[i] = True
+    wrap = _wrap_mask(m, wrap_idx)
     x_bar, x_hat, mu = np.empty(n), np.empty(n), np.empty(b)
     P_bar, P = np.empty((n, n)), np.empty((n, n))
     P_mu, V = np.empty((b, b)), np.empty((n, b))

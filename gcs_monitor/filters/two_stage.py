@@ -435,3 +435,80 @@ def _kernels() -> _Kernels | None:
         else:
             _KERNELS.append(_two_stage_jit)
     return _KERNELS[0]  # type: ignore[return-value]
+
+
+class PackedTwoStage:
+    """Compiled non-iterated steps for an identity output ``h(x) = x`` on a packed state.
+
+    The estimator hot path (:class:`~gcs_monitor.estimators.imu_ts.ImuTwoStageEstimator` on the
+    GS-KM): the model supplies ``F``, ``G`` and the propagated ``x_bar``; one kernel call
+    (``_two_stage_jit.step_identity_output``) runs exactly the calls of :func:`_step_compiled`
+    (``hx = x_pred``, ``H = I``) on one contiguous buffer per state instead of a dozen boxed
+    arrays. Each step returns a new :class:`TwoStageState` whose arrays are views of a new buffer
+    (states stay immutable); a state that did not come from here is packed first.
+    tests/gcs_monitor/filters/test_two_stage.py checks it against :func:`two_stage_step`.
+    """
+
+    def __init__(self, n: int, b: int, m: int, window_n: int) -> None:
+        self.n, self.b, self.m, self.window_n = n, b, m, window_n
+        sizes = (n, n * n, b, b * b, n * b, b * b, n, n * n, window_n * m)
+        self.size = sum(sizes)
+        self._last: tuple[TwoStageState | None, np.ndarray] = (None, np.empty(0))
+
+    @staticmethod
+    def available() -> bool:
+        """True when the numba kernels can be imported."""
+        return _kernels() is not None
+
+    def pack(self, s: TwoStageState) -> np.ndarray:
+        """The packed buffer of ``s`` (x_bar, P_bar, f, Pf, V, Qf, x, Px, gamma2 flattened)."""
+        return np.concatenate([np.ravel(a) for a in (s.x_bar, s.P_bar, s.f, s.Pf, s.V, s.Qf,
+                                                     s.x, s.Px, s.gamma2)])
+
+    def view(self, buf: np.ndarray, k: int) -> TwoStageState:
+        """A :class:`TwoStageState` whose arrays are views of ``buf``."""
+        n, b, m, w = self.n, self.b, self.m, self.window_n
+        o1 = n
+        o2 = o1 + n * n
+        o3 = o2 + b
+        o4 = o3 + b * b
+        o5 = o4 + n * b
+        o6 = o5 + b * b
+        o7 = o6 + n
+        o8 = o7 + n * n
+        return TwoStageState(
+            x_bar=buf[:o1], P_bar=buf[o1:o2].reshape(n, n), f=buf[o2:o3],
+            Pf=buf[o3:o4].reshape(b, b), V=buf[o4:o5].reshape(n, b),
+            Qf=buf[o5:o6].reshape(b, b), x=buf[o6:o7], Px=buf[o7:o8].reshape(n, n), k=k,
+            gamma2=buf[o8:o8 + w * m].reshape(w, m),
+        )
+
+    def step(self, s: TwoStageState, F: Mat, G: Mat, xb_prop: Vec, y: Vec, dt_s: float,
+             noise: TwoStageNoise, cfg: TwoStageConfig) -> tuple[TwoStageState, Innovation]:
+        """:func:`two_stage_step` for ``h(x) = x`` after the iterated steps (``s.k >= n_it``).
+
+        Parameters
+        ----------
+        F, G : (n, n), (n, b) model Jacobians at ``(s.x, u_prev - s.f)`` (Lu2016 note 1)
+        xb_prop : (n,) ``model.propagate(s.x_bar, u_prev, u_now, dt_s)`` (eq. 31 without ubar)
+        """
+        kern = _kernels()
+        assert kern is not None and noise.Qxf is None and s.k >= cfg.n_iterated_steps
+        last, buf = self._last
+        if last is not s:
+            buf = self.pack(s)
+        new_buf = np.empty(self.size)
+        m = self.m
+        out = np.empty(3 * m)
+        code = kern.step_identity_output(  # type: ignore[attr-defined]
+            buf, s.k, new_buf, F, G, xb_prop, y, noise.Q, noise.R, cfg.adapt, dt_s,
+            cfg.gate_sigma, self.window_n, out)
+        if code == 1:  # prediction failed (P^f not PD): as _step_compiled
+            return _fail(s, np.full(m, np.nan), np.full((m, m), np.nan), cfg.gate_sigma)
+        innov = Innovation(nu=out[:m], S_diag=out[m:2 * m], test_ratio=out[2 * m:],
+                           numerics_ok=code == 0)
+        if code != 0:
+            return s, innov
+        new = self.view(new_buf, s.k + 1)
+        self._last = (new, new_buf)
+        return new, innov

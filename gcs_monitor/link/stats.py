@@ -101,6 +101,11 @@ class LinkStats:
         st = self._seq.get(compid)
         if st is None:
             self._seq[compid] = _SeqState(seq, buf)
+        elif seq - st.last == 1 and st.back_ewma == 0.0:
+            # fast path, the usual case: next in sequence, no backward step in memory (the EWMA
+            # update below would leave back_ewma == 0.0 and high_run == 0 unchanged)
+            st.last = seq
+            st.last_buf = buf
         else:
             gap = (seq - st.last) % SEQ_MOD
             back = 0.0
@@ -129,10 +134,14 @@ class LinkStats:
         self.messages += 1
         self.bytes += nbytes
         pt = self.per_type
-        if name not in pt and len(pt) >= MAX_TYPES:
-            name = "OTHER"
-        pt[name] = pt.get(name, 0) + 1
-        self.per_type_bytes[name] = self.per_type_bytes.get(name, 0) + nbytes
+        count = pt.get(name)
+        if count is None:
+            if len(pt) >= MAX_TYPES:
+                name = "OTHER"
+            count = pt.get(name, 0)
+        pt[name] = count + 1
+        ptb = self.per_type_bytes
+        ptb[name] = ptb.get(name, 0) + nbytes
         if self.first_wall_s != self.first_wall_s:
             self.first_wall_s = self._win_start_s = wall_s
         self.last_wall_s = wall_s

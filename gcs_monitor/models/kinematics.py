@@ -26,11 +26,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from gcs_monitor.core import constants as c
 from gcs_monitor.core.atmosphere import gravity_mps2
+from gcs_monitor.core.optional import optional_module
 from gcs_monitor.core.types import Mat, Vec
 
 N_X = 6  # state dimension of both models
@@ -387,3 +389,9 @@ class AsKm:
 
     def h_jac(self, x: Vec) -> Mat:
         return np.array(_as_km_jac_h_rows(x.tolist()))
+
+
+def compiled_gs_km() -> Any | None:
+    """The numba GS-KM (``_kinematics_jit``: ``rates``, ``propagate``, ``jacobians``, writing
+    into caller arrays), imported on first use; None if numba is not installed."""
+    return optional_module("gcs_monitor.models._kinematics_jit")

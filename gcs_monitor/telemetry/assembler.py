@@ -80,6 +80,11 @@ _SCALED_INSTANCE = {M.MAVLINK_MSG_ID_SCALED_IMU: 0, M.MAVLINK_MSG_ID_SCALED_IMU2
                     M.MAVLINK_MSG_ID_SCALED_IMU3: 2}
 
 
+# NAMED_VALUE_FLOAT names as pymavlink delivers them (bytes, NULs stripped) -> _name() of them
+_AOA_NAMES = {b"AOA1": "AOA1", b"AOA2": "AOA2", "AOA1": "AOA1", "AOA2": "AOA2"}
+_SURF_NAMES = frozenset({b"SURF", "SURF"})
+
+
 def _name(raw: Any) -> str:
     if isinstance(raw, bytes):
         raw = raw.decode("ascii", errors="replace")
@@ -469,16 +474,16 @@ class FrameAssembler:
         self._air_t[k] = t_us
         first = None
         if self._pending:
-            vals, ages = ((lambda f: f.aoa_rad, lambda f: f.aoa_age_s) if k < N_AIR
-                          else (lambda f: f.cas_mps, lambda f: f.cas_age_s))
-            j = k if k < N_AIR else k - N_AIR
+            aoa = k < N_AIR
+            j = k if aoa else k - N_AIR
             for f in reversed(self._pending):
                 if f.t_us < t_us:
                     break
                 age = (f.t_us - t_us) * S_PER_US
-                if age < ages(f)[j]:
-                    vals(f)[j] = value
-                    ages(f)[j] = age
+                ages = f.aoa_age_s if aoa else f.cas_age_s
+                if age < ages[j]:
+                    (f.aoa_rad if aoa else f.cas_mps)[j] = value
+                    ages[j] = age
                 first = f
         if first is None:
             self._air_new = True
@@ -503,9 +508,12 @@ class FrameAssembler:
         return []
 
     def _named_value(self, m: Any) -> list[Frame]:
-        name = _name(m.name)
-        if name not in ("AOA1", "AOA2"):
-            return []
+        raw = m.name
+        name = _AOA_NAMES.get(raw) if isinstance(raw, (bytes, str)) else None
+        if name is None:
+            name = _name(raw)
+            if name not in ("AOA1", "AOA2"):
+                return []
         a = m.value * ct.DEG_TO_RAD
         L = ct.MAX_AOA_RAD
         if not -L <= a <= L:
@@ -542,15 +550,22 @@ class FrameAssembler:
         return []
 
     def _debug_array(self, m: Any) -> list[Frame]:
-        if m.array_id != SURF_ARRAY_ID or _name(m.name) != "SURF":
+        if m.array_id != SURF_ARRAY_ID:
+            return []
+        nm = m.name
+        if not (isinstance(nm, (bytes, str)) and nm in _SURF_NAMES) and _name(nm) != "SURF":
             return []
         raw = m.data
         d = np.array(raw[:3 * N_SURF], dtype=float)
         cmd, pos, rod = d[0::3], d[1::3], d[2::3]
         S, R = ct.MAX_SURF_RAD, ct.MAX_ROD_M
-        ok_s = np.abs(np.concatenate((cmd, pos))) <= S  # False for NaN
-        ok_r = np.abs(rod) <= R
-        if not (ok_s.all() and ok_r.all()):
+        # |cmd|, |pos| <= S and |rod| <= R on Python floats (False for NaN), cheaper than numpy
+        ok = True
+        for j, v in enumerate(d.tolist()):
+            if not abs(v) <= (R if j % 3 == 2 else S):
+                ok = False
+                break
+        if not ok:
             names = tuple(f"data[{j}]" for j in range(3 * N_SURF))
             lims = (S, S, R) * N_SURF
             return self._bad("DEBUG_FLOAT_ARRAY.SURF", names, tuple(d.tolist()),

@@ -162,3 +162,18 @@ def test_numerical_failure_reports_and_resets() -> None:
     e = est.step(_frame(t))  # after the reset the filter restarts from the measurement
     assert e.available and e.numerics_ok
     np.testing.assert_allclose(e.states["vel_ned_mps"], [50.0, 0.0, 0.0], atol=1e-6)
+
+
+def test_compiled_hot_path_equals_plain_two_stage_step(run100: SynthRun) -> None:
+    """The estimator's packed numba path (compiled GS-KM + PackedTwoStage) gives the same
+    Estimates as the same estimator stepping through two_stage_step (bitwise: same operations)."""
+    fast = ImuTwoStageEstimator()
+    if fast._packed is None:
+        pytest.skip("numba not installed")
+    plain = ImuTwoStageEstimator()
+    plain._packed = None  # every step through filters.two_stage.two_stage_step
+    for fr in run100.frames[:1500]:
+        a, b = fast.step(fr), plain.step(fr)
+        assert a.faults == b.faults and a.residuals == b.residuals and a.virtual == b.virtual
+        for k in a.states:
+            np.testing.assert_array_equal(a.states[k], b.states[k])
