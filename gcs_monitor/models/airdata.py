@@ -270,3 +270,106 @@ class CompiledAirData(Protocol):
 def compiled_kernels() -> CompiledAirData | None:
     """The numba version of this model, imported on first use (None if numba is missing)."""
     return optional_module("gcs_monitor.models._airdata_jit")  # type: ignore[return-value]
+
+
+# ------------------------------------------------------------------------------------------------
+# Wind bounds of the CMHE from a declared weather envelope (Wan2018 eq. 21b, secs. IV and VI-A)
+# ------------------------------------------------------------------------------------------------
+
+# MIL-F-8785C / Lu2016 sec. 2.2.1 Dryden scale length used when an envelope does not give one.
+DRYDEN_SCALE_M = 530.0
+
+
+@dataclass(frozen=True, slots=True)
+class WindEnvelope:
+    """The weather a flight is declared to meet (a forecast, not measured wind), SI units.
+
+    Wan2018 sec. IV and VI-A: the bounds of eq. 21b "can be time varying to account for
+    different weather or flight conditions" and "need to be properly selected according to the
+    weather and flight conditions"; the paper does not say how. :func:`envelope_bounds` turns
+    this declaration into the box of eq. 21b.
+
+    Attributes
+    ----------
+    wind_mps : steady horizontal wind speed (any direction)
+    wind_z_mps : steady vertical wind speed
+    shear_mps, shear_z_mps : largest horizontal / vertical change of the wind by shear
+    shear_rate_mps2 : largest wind acceleration of the shear (both axes)
+    turbulence_sigma_mps : Dryden intensity sigma_u = sigma_v = sigma_w (0: no turbulence)
+    turbulence_scale_m : Dryden scale length L
+    n_sigma : how many standard deviations of the turbulence the box holds
+    flight_path_max_rad : largest |alpha - theta| (flight-path angle) of the flight; sizes the
+        eq. 15 approximation error that the W_z state absorbs
+    model_margin_mps, model_rate_margin_mps2 : floor of the box for the model mismatch the wind
+        states absorb even in calm air (u_alpha, u_v, n of eq. 1 "account for ... model
+        mismatches"); keeps the box open (the barrier of eq. 44 needs a non-empty interior)
+    """
+
+    wind_mps: float = 18.0
+    wind_z_mps: float = 3.0
+    shear_mps: float = 0.0
+    shear_z_mps: float = 0.0
+    shear_rate_mps2: float = 1.5
+    turbulence_sigma_mps: float = 0.0
+    turbulence_scale_m: float = DRYDEN_SCALE_M
+    n_sigma: float = 3.0
+    flight_path_max_rad: float = 10.0 * math.pi / 180.0
+    model_margin_mps: float = 2.0
+    model_rate_margin_mps2: float = 0.5
+
+
+@dataclass(frozen=True, slots=True)
+class WindBounds:
+    """Symmetric box of eq. 21b on W_x, W_z (m/s) and u_wx, u_wz (m/s^2)."""
+
+    wind_x_max_mps: float
+    wind_z_max_mps: float
+    rate_x_max_mps2: float
+    rate_z_max_mps2: float
+
+
+def envelope_bounds(
+    env: WindEnvelope, tas_mps: float, dt_s: float, roll_rad: float, g_mps2: float = c.GRAVITY_STD_MPS2
+) -> WindBounds:
+    """Bounds of eq. 21b for the current flight condition from a declared envelope.
+
+    Our construction (Wan2018 gives none), each term a bound on one physical source:
+
+    * ``|W_x| <= wind + shear + n sigma`` and ``|W_z| <= wind_z + shear_z + n sigma``: steady
+      wind, shear and turbulence add; a Dryden gust stays within ``n sigma`` (Gaussian);
+    * ``|u_w|`` is the wind change per sample over ``t_s`` (eq. 20c). A Dryden longitudinal gust
+      is a first-order Markov process with ``tau = L / V`` (Lu2016 eq. 21), so its change over
+      one sample has the standard deviation ``sigma sqrt(2 (1 - exp(-t_s / tau)))``; ``n`` of
+      those divided by ``t_s`` bound the turbulent part of ``u_w`` (the lateral/vertical
+      gusts are smoother, so the same value bounds ``u_wz``);
+    * the states also absorb the model's approximation errors, which the box must hold too:
+      eq. 11 drops ``W_perp^2 / (2 V_g)`` (W_x) and eq. 15 replaces V_t by V_g, an error of
+      ``(V_t - V_g) sin(alpha - theta)`` <= ``W_x,max sin(gamma_max)`` (W_z);
+    * the shear's own acceleration adds to both axes;
+    * W_x is the wind along the heading: in a turn at bank ``phi`` the heading rate
+      ``g tan(phi) / V`` turns the horizontal wind into the heading at up to
+      ``W_h g |tan phi| / V`` (the longitudinal model of eq. 6 has no heading; this term keeps
+      the box valid in the turns the campaign flies).
+
+    Parameters
+    ----------
+    env : declared envelope
+    tas_mps : airspeed for the Dryden time constant (the measured V_g of Theta is used: only
+        tau depends on it)
+    dt_s : air-data sample interval t_s
+    roll_rad : measured bank angle
+    """
+    v = max(tas_mps, 1.0)
+    gust = env.n_sigma * env.turbulence_sigma_mps
+    wh = env.wind_mps + env.shear_mps + gust
+    wx = wh + wh * wh / (2.0 * v) + env.model_margin_mps  # eq. 11 error
+    wz = (env.wind_z_mps + env.shear_z_mps + gust + wh * math.sin(env.flight_path_max_rad)
+          + env.model_margin_mps)
+    turb_rate = 0.0
+    if env.turbulence_sigma_mps > 0.0 and dt_s > 0.0:
+        tau = env.turbulence_scale_m / v
+        step_sd = env.turbulence_sigma_mps * math.sqrt(2.0 * (1.0 - math.exp(-dt_s / tau)))
+        turb_rate = env.n_sigma * step_sd / dt_s
+    turn_rate = wx * g_mps2 * abs(math.tan(max(min(roll_rad, 1.4), -1.4))) / v
+    rate = env.shear_rate_mps2 + turb_rate + env.model_rate_margin_mps2
+    return WindBounds(wx, wz, rate + turn_rate, rate)

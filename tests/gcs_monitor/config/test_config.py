@@ -38,6 +38,8 @@ def test_units_converted_once(tmp_path):
         ("[telemetry]\ngps_delay_s = 'x'\n", r"must be a non-negative number"),
         ("[fdi]\nbaro = {}\n", r"unknown key 'fdi.baro'"),
         ("x = [", r"not valid TOML"),
+        ("[airdata]\nwind_mps = 3\n", r"unknown key 'airdata.wind_mps'"),
+        ("[airdata]\nturbulence_sigma_kts = -1\n", r"must be a non-negative number"),
     ],
 )
 def test_invalid_config_names_file_and_key(tmp_path, text, match):
@@ -45,3 +47,15 @@ def test_invalid_config_names_file_and_key(tmp_path, text, match):
     with pytest.raises(ConfigError, match=match) as ei:
         load_config(p)
     assert str(p) in str(ei.value)
+
+
+def test_airdata_envelope_in_knots(tmp_path):
+    """[airdata]: the declared weather, knots in the file, SI after loading."""
+    c = load_config(_write(tmp_path, "[airdata]\nwind_kts = 30\nturbulence_sigma_kts = 4\n"
+                                     "shear_rate_ktsps = 2\nflight_path_max_deg = 5\n"))
+    kt = 1852 / 3600
+    assert c.airdata.wind_mps == pytest.approx(30 * kt, rel=1e-12)
+    assert c.airdata.turbulence_sigma_mps == pytest.approx(4 * kt, rel=1e-12)
+    assert c.airdata.shear_rate_mps2 == pytest.approx(2 * kt, rel=1e-12)
+    assert c.airdata.flight_path_max_rad == pytest.approx(math.radians(5.0), rel=1e-12)
+    assert c.airdata.n_sigma == 3.0  # untouched keys keep their defaults

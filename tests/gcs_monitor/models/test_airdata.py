@@ -20,7 +20,9 @@ from gcs_monitor.models.airdata import (
     airdata_h_jac_x,
     airdata_initial_state,
     cas_from_tas_with_derivative,
+    WindEnvelope,
     compiled_kernels,
+    envelope_bounds,
 )
 
 P = AirDataModelParams()
@@ -165,3 +167,64 @@ def test_compiled_horizon_linearisation_matches_methods() -> None:
             np.testing.assert_allclose(f[i], f_ref, rtol=1e-12, atol=1e-11)
     # rows from n on are left untouched
     assert not np.any(cm[n:]) and not np.any(ry[n:]) and not np.any(a[n - 1 :])
+
+
+# ------------------------------------------------------------------------------------------
+# Wind bounds from a declared envelope (eq. 21b): hand-derived values of envelope_bounds
+# ------------------------------------------------------------------------------------------
+
+
+def test_envelope_calm_gives_the_model_margins() -> None:
+    env = WindEnvelope(wind_mps=0.0, wind_z_mps=0.0, shear_rate_mps2=0.0)
+    b = envelope_bounds(env, 150.0, 0.05, 0.0)
+    assert b.wind_x_max_mps == pytest.approx(env.model_margin_mps, abs=1e-12)
+    assert b.wind_z_max_mps == pytest.approx(env.model_margin_mps, abs=1e-12)
+    assert b.rate_x_max_mps2 == pytest.approx(env.model_rate_margin_mps2, abs=1e-12)
+    assert b.rate_z_max_mps2 == pytest.approx(env.model_rate_margin_mps2, abs=1e-12)
+
+
+def test_envelope_turbulence_by_hand() -> None:
+    """sigma 2 m/s, L 500 m, V 100 m/s: tau = 5 s; over t_s = 0.05 s a first-order Markov gust
+    changes with sd 2 sqrt(2 (1 - e^-0.01)) = 0.282137 m/s; 3 of those / t_s = 16.928 m/s^2."""
+    env = WindEnvelope(wind_mps=0.0, wind_z_mps=0.0, shear_rate_mps2=0.0,
+                       turbulence_sigma_mps=2.0, turbulence_scale_m=500.0)
+    b = envelope_bounds(env, 100.0, 0.05, 0.0)
+    step_sd = 2.0 * math.sqrt(2.0 * (1.0 - math.exp(-0.01)))
+    assert step_sd == pytest.approx(0.282137, abs=1e-6)
+    rate = 3.0 * step_sd / 0.05 + 0.5
+    assert b.rate_x_max_mps2 == pytest.approx(rate, rel=1e-12)
+    assert b.rate_z_max_mps2 == pytest.approx(rate, rel=1e-12)
+    # |W_x| <= 3 sigma + (3 sigma)^2 / (2 V) (eq. 11) + 2;  |W_z| <= 3 sigma (1 + sin 10 deg) + 2
+    assert b.wind_x_max_mps == pytest.approx(6.0 + 36.0 / 200.0 + 2.0, rel=1e-12)
+    assert b.wind_z_max_mps == pytest.approx(6.0 * (1.0 + math.sin(math.radians(10.0))) + 2.0,
+                                             rel=1e-12)
+
+
+def test_envelope_turn_adds_heading_rate_times_wind() -> None:
+    """30 deg bank at 100 m/s: heading rate g tan 30 / 100; W_x,max = 10 + 100/200 = 10.5."""
+    env = WindEnvelope(wind_mps=10.0, wind_z_mps=0.0, shear_rate_mps2=0.0,
+                       model_margin_mps=0.0, model_rate_margin_mps2=0.0)
+    level = envelope_bounds(env, 100.0, 0.05, 0.0)
+    turn = envelope_bounds(env, 100.0, 0.05, math.radians(30.0))
+    assert level.rate_x_max_mps2 == 0.0
+    expected = 10.5 * GRAVITY_STD_MPS2 * math.tan(math.radians(30.0)) / 100.0
+    assert turn.rate_x_max_mps2 == pytest.approx(expected, rel=1e-12)
+    assert turn.rate_z_max_mps2 == 0.0  # the heading rate does not move the vertical wind
+    assert turn.wind_x_max_mps == level.wind_x_max_mps == pytest.approx(10.5, rel=1e-12)
+
+
+def test_envelope_bounds_grow_with_the_weather() -> None:
+    """Invariant: more wind, shear or turbulence never shrinks the box."""
+    rng = np.random.default_rng(5)
+    for _ in range(50):
+        a = WindEnvelope(wind_mps=rng.uniform(0, 30), shear_mps=rng.uniform(0, 10),
+                         turbulence_sigma_mps=rng.uniform(0, 3), shear_rate_mps2=rng.uniform(0, 2))
+        bigger = WindEnvelope(wind_mps=a.wind_mps + 1, shear_mps=a.shear_mps + 1,
+                              turbulence_sigma_mps=a.turbulence_sigma_mps + 0.5,
+                              shear_rate_mps2=a.shear_rate_mps2 + 0.1)
+        v, roll = rng.uniform(80, 190), rng.uniform(-0.5, 0.5)
+        b0, b1 = envelope_bounds(a, v, 0.05, roll), envelope_bounds(bigger, v, 0.05, roll)
+        assert b1.wind_x_max_mps > b0.wind_x_max_mps
+        assert b1.wind_z_max_mps > b0.wind_z_max_mps
+        assert b1.rate_x_max_mps2 > b0.rate_x_max_mps2
+        assert b1.rate_z_max_mps2 > b0.rate_z_max_mps2
