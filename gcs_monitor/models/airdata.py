@@ -56,9 +56,20 @@ class AirDataModelParams:
 
     ``g_mps2`` is the gravity of eqs. 5-9; Wan2018 does not give a value, we use standard
     gravity (the altitude dependence is far below the model's approximation errors).
+
+    ``wind_accel_in_alpha`` keeps the wind-acceleration term of eq. 8,
+    ``f_w,alpha / V_t = (W_x_dot sin(alpha - theta) - W_z_dot cos(alpha - theta)) / V_t``, with
+    the wind acceleration taken from the unknown wind input u_w of eq. 1 (and V_t ~ V_g as in
+    eq. 13). Wan2018 eq. 12 drops it ("V_t >> f_w,alpha"); for its winds (accelerations below
+    15 kts/s) the term is below 0.04 rad/s, but Dryden turbulence sampled at 20 Hz changes the
+    wind by 10-30 m/s^2 from sample to sample, so a vertical gust moves alpha by W_z_dot / V
+    ~ 5 deg/s that eq. 13 attributes to nothing (the fault-free AoA residual then lags every
+    gust; see docs/papers-notes.md "Wan2018"). With the term, u_wz moves alpha and W_z together
+    and leaves V_z unchanged, as a gust does. False gives eq. 13 exactly.
     """
 
     g_mps2: float = c.GRAVITY_STD_MPS2
+    wind_accel_in_alpha: bool = True
 
 
 def isa_temp_pbar(alt_m: float) -> tuple[float, float]:
@@ -122,16 +133,23 @@ def airdata_derivative(x: Vec, theta_p: Vec, p: AirDataModelParams) -> Vec:
 
 
 def airdata_f(x: Vec, u: Vec, theta_p: Vec, dt_s: float, p: AirDataModelParams) -> Vec:
-    """Discrete transition x_{k+1} = x_k + t_s (F(x_k, Theta_k) + u_k) (Wan2018 eq. 20a-c).
+    """Discrete transition x_{k+1} = x_k + t_s (F(x_k, Theta_k) + u_k) (Wan2018 eq. 20a-c),
+    plus ``t_s f_w,alpha(u_w) / V_g`` in alpha when ``p.wind_accel_in_alpha`` (eq. 8).
 
     Parameters
     ----------
     x : (4,) state; u : (4,) unknown inputs (rates); theta_p : (6,) Theta_k; dt_s : t_s (s)
     """
-    return x + dt_s * (airdata_derivative(x, theta_p, p) + u)
+    out = x + dt_s * (airdata_derivative(x, theta_p, p) + u)
+    if p.wind_accel_in_alpha:
+        d = x[IX_AOA] - theta_p[IT_THETA]
+        out[IX_AOA] += dt_s * (u[IX_WX] * math.sin(d) - u[IX_WZ] * math.cos(d)) / theta_p[IT_VG]
+    return out
 
 
-def airdata_f_jac_x(x: Vec, theta_p: Vec, dt_s: float, p: AirDataModelParams) -> Mat:
+def airdata_f_jac_x(
+    x: Vec, theta_p: Vec, dt_s: float, p: AirDataModelParams, u: Vec | None = None
+) -> Mat:
     """A_k = dF/dx of :func:`airdata_f` (Wan2018 eq. 23 with a_12 = 0, Remark 1)."""
     alpha = x[IX_AOA]
     vg, theta, ax, az = theta_p[IT_VG], theta_p[IT_THETA], theta_p[IT_AX], theta_p[IT_AZ]
@@ -141,12 +159,24 @@ def airdata_f_jac_x(x: Vec, theta_p: Vec, dt_s: float, p: AirDataModelParams) ->
     a = np.eye(N_X)
     a[IX_AOA, IX_AOA] += dt_s * d_falpha / vg
     a[IX_VG, IX_AOA] = dt_s * d_fv
+    if p.wind_accel_in_alpha and u is not None:
+        d = alpha - theta
+        a[IX_AOA, IX_AOA] += dt_s * (u[IX_WX] * math.cos(d) + u[IX_WZ] * math.sin(d)) / vg
     return a
 
 
-def airdata_f_jac_u(dt_s: float) -> Mat:
-    """B_k = dF/du = t_s I (Wan2018 eq. 20)."""
-    return dt_s * np.eye(N_X)
+def airdata_f_jac_u(
+    dt_s: float, x: Vec | None = None, theta_p: Vec | None = None,
+    p: AirDataModelParams | None = None,
+) -> Mat:
+    """B_k = dF/du = t_s I (Wan2018 eq. 20), plus the u_w column entries of the eq. 8 term in
+    the alpha row when ``p.wind_accel_in_alpha`` (``x``, ``theta_p`` and ``p`` given)."""
+    b = dt_s * np.eye(N_X)
+    if p is not None and p.wind_accel_in_alpha and x is not None and theta_p is not None:
+        d = x[IX_AOA] - theta_p[IT_THETA]
+        b[IX_AOA, IX_WX] = dt_s * math.sin(d) / theta_p[IT_VG]
+        b[IX_AOA, IX_WZ] = -dt_s * math.cos(d) / theta_p[IT_VG]
+    return b
 
 
 def airdata_h(x: Vec, theta_p: Vec) -> Vec:
@@ -207,10 +237,10 @@ class AirDataModel:
         return airdata_f(x, u, theta_p, dt_s, self.params)
 
     def f_jac_x(self, x: Vec, u: Vec, theta_p: Vec, dt_s: float) -> Mat:
-        return airdata_f_jac_x(x, theta_p, dt_s, self.params)
+        return airdata_f_jac_x(x, theta_p, dt_s, self.params, u)
 
     def f_jac_u(self, x: Vec, u: Vec, theta_p: Vec, dt_s: float) -> Mat:
-        return airdata_f_jac_u(dt_s)
+        return airdata_f_jac_u(dt_s, x, theta_p, self.params)
 
     def h(self, x: Vec, theta_p: Vec) -> Vec:
         return airdata_h(x, theta_p)
@@ -244,8 +274,9 @@ class AirDataModel:
         if kern is None:
             return False
         kern.linearise_horizon(
-            n, x_lin, u_lin, th, dts, ym, mk, self.params.g_mps2, _JIT_CONSTS, a, b, f, cm, ry
-        )
+            n, x_lin, u_lin, th, dts, ym, mk, self.params.g_mps2,
+            1.0 if self.params.wind_accel_in_alpha else 0.0, _JIT_CONSTS, a, b, f, cm, ry,
+        )  # fmt: skip
         return True
 
 

@@ -77,8 +77,13 @@ def test_hand_values() -> None:
     assert y[1] == pytest.approx(-2.0)  # W_z = 2 m/s down -> V_z = -2 m/s (up positive)
     assert y[3] == pytest.approx(cas_from_tas(110.0, 0.0), rel=1e-12)  # sea level: CAS = TAS
     assert y[3] == pytest.approx(110.0, rel=1e-12)
-    xn = airdata_f(x, np.array([0.1, 0.2, 0.3, 0.4]), theta_p, 0.05, P)
+    eq13 = AirDataModelParams(wind_accel_in_alpha=False)
+    xn = airdata_f(x, np.array([0.1, 0.2, 0.3, 0.4]), theta_p, 0.05, eq13)
     np.testing.assert_allclose(xn, x + 0.05 * (xd + [0.1, 0.2, 0.3, 0.4]), rtol=1e-14)
+    # eq. 8 term, alpha = theta = 0: + t_s (0.3 sin 0 - 0.4 cos 0) / V_g = -0.05 * 0.4 / 100
+    xn8 = airdata_f(x, np.array([0.1, 0.2, 0.3, 0.4]), theta_p, 0.05, P)
+    assert xn8[0] - xn[0] == pytest.approx(-0.05 * 0.4 / 100.0, rel=1e-12)
+    np.testing.assert_array_equal(xn8[1:], xn[1:])
 
 
 @pytest.mark.parametrize("alt_m", [0.0, 1524.0, 9000.0])
@@ -109,16 +114,16 @@ def test_jacobians_against_central_differences(seed: int) -> None:
         c_fd[:, j] = (airdata_h(x + e, th) - airdata_h(x - e, th)) / (2 * eps[j])
     # Central differences: O(eps^2) truncation; the CAS power chain loses ~1e-14 relative,
     # divided by eps -> ~1e-7 relative.
-    np.testing.assert_allclose(airdata_f_jac_x(x, th, dt, P), a_fd, rtol=1e-7, atol=1e-8)
+    np.testing.assert_allclose(airdata_f_jac_x(x, th, dt, P, u), a_fd, rtol=1e-7, atol=1e-8)
     np.testing.assert_allclose(airdata_h_jac_x(x, th), c_fd, rtol=1e-6, atol=1e-8)
     b_fd = np.zeros((4, 4))
     for j in range(4):
         e = np.zeros(4)
         e[j] = 1e-3
         b_fd[:, j] = (airdata_f(x, u + e, th, dt, P) - airdata_f(x, u - e, th, dt, P)) / 2e-3
-    np.testing.assert_allclose(airdata_f_jac_u(dt), b_fd, atol=1e-12)
+    np.testing.assert_allclose(airdata_f_jac_u(dt, x, th, P), b_fd, atol=1e-12)
     # Remark 1: a_12 = c_22 = 0 (V_g enters through the measured Theta)
-    assert airdata_f_jac_x(x, th, dt, P)[0, 1] == 0.0
+    assert airdata_f_jac_x(x, th, dt, P, u)[0, 1] == 0.0
     assert airdata_h_jac_x(x, th)[1, 1] == 0.0
 
 
@@ -228,3 +233,24 @@ def test_envelope_bounds_grow_with_the_weather() -> None:
         assert b1.wind_z_max_mps > b0.wind_z_max_mps
         assert b1.rate_x_max_mps2 > b0.rate_x_max_mps2
         assert b1.rate_z_max_mps2 > b0.rate_z_max_mps2
+
+
+def test_eq8_wind_acceleration_moves_alpha_with_a_vertical_gust() -> None:
+    """Eq. 8 term: a vertical wind input u_wz over t_s changes alpha by -t_s u_wz cos(d) / V_g
+    and W_z by t_s u_wz, so V_z (eq. 15) changes only by -t_s u_wz sin(d)^2 (d = alpha - theta):
+    a gust changes the angle of attack, not the ground path. Without the term (eq. 13) alpha
+    does not move and V_z takes the whole -t_s u_wz."""
+    th = np.array([150.0, 0.05, 0.0, 0.5, -9.7, 3000.0])
+    x = np.array([0.06, 150.0, 5.0, 1.0])
+    u = np.array([0.0, 0.0, 0.0, 12.0])  # 12 m/s^2 vertical gust rate
+    dt = 0.05
+    d = x[0] - th[1]
+    for p, dalpha_expected in ((P, -dt * 12.0 * math.cos(d) / 150.0),
+                               (AirDataModelParams(wind_accel_in_alpha=False), 0.0)):
+        x1 = airdata_f(x, u, th, dt, p)
+        x0 = airdata_f(x, np.zeros(4), th, dt, p)
+        assert x1[0] - x0[0] == pytest.approx(dalpha_expected, rel=1e-12, abs=1e-15)
+        assert x1[3] - x0[3] == pytest.approx(dt * 12.0, rel=1e-12)
+    x1, x0 = airdata_f(x, u, th, dt, P), airdata_f(x, np.zeros(4), th, dt, P)
+    dvz = airdata_h(x1, th)[1] - airdata_h(x0, th)[1]
+    assert abs(dvz) < dt * 12.0 * math.sin(d) ** 2 + 1e-6  # second order in d (+ O(dalpha^2))
