@@ -59,3 +59,13 @@ def test_airdata_envelope_in_knots(tmp_path):
     assert c.airdata.shear_rate_mps2 == pytest.approx(2 * kt, rel=1e-12)
     assert c.airdata.flight_path_max_rad == pytest.approx(math.radians(5.0), rel=1e-12)
     assert c.airdata.n_sigma == 3.0  # untouched keys keep their defaults
+
+
+@pytest.mark.parametrize("name", ["weather_calm.toml", "weather_moderate_turbulence.toml"])
+def test_shipped_weather_configs_load(name):
+    from pathlib import Path
+
+    p = Path(__file__).resolve().parents[3] / "configs" / name
+    c = load_config(p)
+    assert c.estimators.airdata == "cmhe"  # only the declared weather changes
+    assert c.airdata.wind_mps > 0.0

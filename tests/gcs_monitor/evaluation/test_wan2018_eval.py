@@ -120,3 +120,11 @@ def test_quick_campaign_metrics(tmp_path: Path) -> None:
         if method == "monitor":
             assert float(far) == 0.0  # thresholds from fault-free calibration seeds
     assert (tmp_path / "wan2018_campaign_delays.png").stat().st_size > 0
+
+
+def test_calibration_runs_open_loop() -> None:
+    """Calibration runs must never isolate (a lost set would leave the MHE on the model alone and
+    inflate the 'fault-free' J): open_loop thresholds sit far above any residual."""
+    cfg = wan2018.open_loop(wan2018.variant_config("cmhe"))
+    assert cfg.fdi.aoa.threshold >= 1.0e3 and cfg.fdi.cas.threshold >= 1.0e4
+    assert cfg.estimators.airdata == "cmhe" and not cfg.estimators.imu_ts
