@@ -13,6 +13,6 @@ from gcs_monitor.config.loader import (
 )
 
 __all__ = [
-    "AirDataConfig", "ConfigError", "EstimatorsConfig", "FdiConfig", "MonitorConfig", "SetConfig", "SinksConfig",
-    "TelemetryConfig", "load_config",
+    "AirDataConfig", "ConfigError", "EstimatorsConfig", "FdiConfig", "MonitorConfig", "SetConfig",
+    "SinksConfig", "TelemetryConfig", "load_config",
 ]

@@ -72,9 +72,9 @@ class AirDataConfig:
     ``model_rate_margin_ktsps``). The estimator turns it into bounds at every sample
     (``gcs_monitor.models.airdata.envelope_bounds``). Defaults: 18 m/s wind, 3 m/s vertical
     wind, 1.5 m/s^2 wind acceleration, no turbulence declared; with the model margins this
-    gives about the fixed box the CMHE used before the envelope existed (|W_x| <= 20 m/s at
-    160 kts + 2 m/s, |W_z| <= 8 m/s, |u_w| <= 2 m/s^2 wings level). One config file per flight condition
-    (configs/weather_*.toml).
+    gives about the fixed box the CMHE used before the envelope existed (|W_x| <= 21-22 m/s,
+    |W_z| <= 8 m/s, |u_w| <= 2 m/s^2 wings level, against 20, 8, 2). One config file per flight
+    condition (configs/weather_*.toml).
     """
 
     wind_mps: float = 18.0

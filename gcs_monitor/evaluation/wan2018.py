@@ -439,7 +439,8 @@ def campaign_markdown(res: dict[str, Any], n_runs: int, n_cal: int,
         f"{duration_s[0]:g}-{duration_s[1]:g} s, {res['sim_s']:.0f} simulated s in "
         f"{res['wall_s']:.0f} s wall. Estimator: {res['variant'].upper()}.",
         f"Thresholds from {n_cal} fault-free runs of seed {CALIBRATION_SEED}, run open loop (no "
-        f"isolation), each with its declared weather (1.5 x worst fault-free J): J_th AoA = {th['aoa'] / DEG2RAD:.3f} deg (worst J "
+        f"isolation), each with its declared weather (1.5 x worst fault-free J): J_th AoA = "
+        f"{th['aoa'] / DEG2RAD:.3f} deg (worst J "
         f"{res['jmax_cal']['aoa'] / DEG2RAD:.3f}), CAS = {th['cas'] / KT2MPS:.2f} kt (worst J "
         f"{res['jmax_cal']['cas'] / KT2MPS:.2f}); Wan2018: 2.9 deg, 12 kts.",
         "",

@@ -360,7 +360,11 @@ class WindBounds:
 
 
 def envelope_bounds(
-    env: WindEnvelope, tas_mps: float, dt_s: float, roll_rad: float, g_mps2: float = c.GRAVITY_STD_MPS2
+    env: WindEnvelope,
+    tas_mps: float,
+    dt_s: float,
+    roll_rad: float,
+    g_mps2: float = c.GRAVITY_STD_MPS2,
 ) -> WindBounds:
     """Bounds of eq. 21b for the current flight condition from a declared envelope.
 
