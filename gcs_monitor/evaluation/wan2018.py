@@ -527,6 +527,48 @@ def _campaign_files(res: dict[str, Any], out: Path) -> None:
     plt.close(fig)
 
 
+def _calibration_diag_run(job: tuple[int, Any, MonitorConfig, bool]) -> dict[str, Any]:
+    i, sc, cfg, declare = job
+    rec = run_one(i, sc, cfg, keep_series=False, declare_weather=declare)
+    return {"i": i, "manoeuvre": sc.manoeuvre.kind, "wind": sc.wind.kind,
+            "sigma_mps": sc.wind.turbulence_sigma_mps,
+            "j_aoa": rec.j_max.get("aoa", math.nan), "j_cas": rec.j_max.get("cas", math.nan),
+            "alarms": rec.raised.get(METHOD_MONITOR, 0)}
+
+
+def wan2018_calibration(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
+    """Diagnosis of the campaign thresholds: the worst fault-free J of the calibration runs
+    (seed 1000) under three set-ups: closed loop with the default J_th (1 deg, 4 kt) and the
+    default fixed wind box (what the first campaign calibrated with), open loop with the fixed
+    box, and open loop with each run's declared weather (what :func:`calibrate_campaign` does)."""
+    out = Path(out_dir)
+    n, dur = (6, (40.0, 60.0)) if quick else (40, FULL_DURATION_S)
+    scs = campaign_scenarios(n, CALIBRATION_SEED, dur, fault_free_only=True)
+    base = variant_config("cmhe")
+    setups = (("closed loop, default J_th, fixed box", base, False),
+              ("open loop, fixed box", open_loop(base), False),
+              ("open loop, declared weather", open_loop(base), True))
+    rows, csv_rows = [], []
+    for name, cfg, declare in setups:
+        res = _pool(_calibration_diag_run, [(i, sc, cfg, declare) for i, sc in enumerate(scs)],
+                    jobs, name[:20], not quick)
+        wa = max(res, key=lambda r: r["j_aoa"])
+        wc = max(res, key=lambda r: r["j_cas"])
+        rows.append([name, _f(wa["j_aoa"] / DEG2RAD, 3),
+                     f"{wa['i']} ({wa['manoeuvre']}, {wa['wind']}, σ {wa['sigma_mps']:g} m/s)",
+                     _f(wc["j_cas"] / KT2MPS, 2),
+                     f"{wc['i']} ({wc['manoeuvre']}, {wc['wind']}, σ {wc['sigma_mps']:g} m/s)",
+                     sum(1 for r in res if r["alarms"])])
+        csv_rows += [[name, r["i"], r["manoeuvre"], r["wind"], r["sigma_mps"],
+                      r["j_aoa"] / DEG2RAD, r["j_cas"] / KT2MPS, r["alarms"]] for r in res]
+    _csv(out / "wan2018_calibration.csv", ["setup", "run", "manoeuvre", "wind", "sigma_mps",
+                                           "max_J_aoa_deg", "max_J_cas_kts", "alarms"], csv_rows)
+    return (f"{n} fault-free calibration runs (seed {CALIBRATION_SEED}), durations "
+            f"{dur[0]:g}-{dur[1]:g} s.\n\n"
+            + _md(["set-up", "worst J AoA [deg]", "run", "worst J CAS [kt]", "run",
+                   "runs with alarms"], rows))
+
+
 def wan2018_campaign(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
     """Wan2018 sec. VI-B: 249 runs (140 fault-free), Tables III and IV, median-vote baseline."""
     out = Path(out_dir)
@@ -553,6 +595,7 @@ def experiments() -> dict[str, Callable[[Path, int, bool], str]]:
         "wan2018_fig3": wan2018_fig3,
         "wan2018_campaign": wan2018_campaign,
         "wan2018_onspeed": wan2018_onspeed,
+        "wan2018_calibration": wan2018_calibration,
     }
     return out
 
