@@ -58,8 +58,9 @@ def build_estimators(cfg: MonitorConfig) -> tuple[list[Estimator], Any | None]:
     if cfg.estimators.airdata != "none":
         from gcs_monitor.estimators.airdata import AirDataEstimator, AirDataEstimatorConfig
 
-        airdata = AirDataEstimator(AirDataEstimatorConfig(envelope=wind_envelope(cfg)),
-                                   variant=cfg.estimators.airdata)
+        est_cfg = AirDataEstimatorConfig(envelope=wind_envelope(cfg),
+                                         wind_accel_in_alpha=cfg.airdata.wind_accel_in_alpha)
+        airdata = AirDataEstimator(est_cfg, variant=cfg.estimators.airdata)
     return imu, airdata
 
 

@@ -69,7 +69,8 @@ class AirDataConfig:
     section ``[airdata]``, keys in knots: ``wind_kts``, ``wind_z_kts``, ``shear_kts``,
     ``shear_z_kts``, ``shear_rate_ktsps``, ``turbulence_sigma_kts``, plus
     ``turbulence_scale_m``, ``n_sigma``, ``flight_path_max_deg``, ``model_margin_kts``,
-    ``model_rate_margin_ktsps``). The estimator turns it into bounds at every sample
+    ``model_rate_margin_ktsps``; ``wind_accel_in_alpha`` switches the model between eq. 8's
+    wind-acceleration term and Wan2018 eq. 13). The estimator turns it into bounds at every sample
     (``gcs_monitor.models.airdata.envelope_bounds``). Defaults: 18 m/s wind, 3 m/s vertical
     wind, 1.5 m/s^2 wind acceleration, no turbulence declared; with the model margins this
     gives about the fixed box the CMHE used before the envelope existed (|W_x| <= 21-22 m/s,
@@ -88,6 +89,7 @@ class AirDataConfig:
     flight_path_max_rad: float = 10.0 * DEG2RAD
     model_margin_mps: float = 2.0
     model_rate_margin_mps2: float = 0.5
+    wind_accel_in_alpha: bool = True  # eq. 8 term in the model (False: Wan2018 eq. 13)
 
 
 # TOML key -> (field, factor to SI)
@@ -109,11 +111,16 @@ _AIRDATA_KEYS = {
 def _airdata_config(data: Any, src: str) -> AirDataConfig:
     if not isinstance(data, dict):
         raise ConfigError(f"{src}: [airdata] must be a table")
-    kwargs: dict[str, float] = {}
+    kwargs: dict[str, Any] = {}
     for key, value in data.items():
+        if key == "wind_accel_in_alpha":
+            if not isinstance(value, bool):
+                raise ConfigError(f"{src}: 'airdata.{key}' must be true or false, got {value!r}")
+            kwargs[key] = value
+            continue
         if key not in _AIRDATA_KEYS:
             raise ConfigError(f"{src}: unknown key 'airdata.{key}'; expected one of "
-                              f"{sorted(_AIRDATA_KEYS)}")
+                              f"{sorted([*_AIRDATA_KEYS, 'wind_accel_in_alpha'])}")
         if isinstance(value, bool) or not isinstance(value, int | float) or value < 0:
             raise ConfigError(f"{src}: 'airdata.{key}' must be a non-negative number, got "
                               f"{value!r}")

@@ -41,6 +41,7 @@ from gcs_monitor.models.airdata import (
     N_U,
     N_X,
     AirDataModel,
+    AirDataModelParams,
     WindEnvelope,
     airdata_initial_state,
     envelope_bounds,
@@ -100,6 +101,8 @@ class AirDataEstimatorConfig:
     wind_z_max_mps: float = 8.0
     wind_rate_max_mps2: float = 2.0
     envelope: WindEnvelope | None = None
+    # eq. 8's wind-acceleration term in alpha_dot (AirDataModelParams); False = eq. 13 exactly
+    wind_accel_in_alpha: bool = True
     kappa_init: float = 1.0e-2
     n_s_max: int = 12
 
@@ -113,7 +116,9 @@ class AirDataEstimator:
         self.cfg = config or AirDataEstimatorConfig()
         self.variant = variant
         self.name = f"airdata_{variant}"
-        self.model = AirDataModel()
+        self.model = AirDataModel(
+            AirDataModelParams(wind_accel_in_alpha=self.cfg.wind_accel_in_alpha)
+        )
         c = self.cfg
         self.weights = MheWeights(
             p_diag=np.array([c.p_alpha_rad2, c.p_v_m2ps2, c.p_w_m2ps2, c.p_w_m2ps2]),

@@ -538,15 +538,19 @@ def _calibration_diag_run(job: tuple[int, Any, MonitorConfig, bool]) -> dict[str
 
 def wan2018_calibration(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
     """Diagnosis of the campaign thresholds: the worst fault-free J of the calibration runs
-    (seed 1000) under three set-ups: closed loop with the default J_th (1 deg, 4 kt) and the
+    (seed 1000) under four set-ups: closed loop with the default J_th (1 deg, 4 kt) and the
     default fixed wind box (what the first campaign calibrated with), open loop with the fixed
-    box, and open loop with each run's declared weather (what :func:`calibrate_campaign` does)."""
+    box, open loop with each run's declared weather on the eq. 13 model, and the same with
+    eq. 8's wind-acceleration term (what :func:`calibrate_campaign` does)."""
     out = Path(out_dir)
     n, dur = (6, (40.0, 60.0)) if quick else (40, FULL_DURATION_S)
     scs = campaign_scenarios(n, CALIBRATION_SEED, dur, fault_free_only=True)
     base = variant_config("cmhe")
+    eq13 = dataclasses.replace(base, airdata=dataclasses.replace(base.airdata,
+                                                                 wind_accel_in_alpha=False))
     setups = (("closed loop, default J_th, fixed box", base, False),
               ("open loop, fixed box", open_loop(base), False),
+              ("open loop, declared weather, eq. 13 (no eq. 8 term)", open_loop(eq13), True),
               ("open loop, declared weather", open_loop(base), True))
     rows, csv_rows = [], []
     for name, cfg, declare in setups:

@@ -40,6 +40,7 @@ def test_units_converted_once(tmp_path):
         ("x = [", r"not valid TOML"),
         ("[airdata]\nwind_mps = 3\n", r"unknown key 'airdata.wind_mps'"),
         ("[airdata]\nturbulence_sigma_kts = -1\n", r"must be a non-negative number"),
+        ("[airdata]\nwind_accel_in_alpha = 1\n", r"must be true or false"),
     ],
 )
 def test_invalid_config_names_file_and_key(tmp_path, text, match):
@@ -69,3 +70,14 @@ def test_shipped_weather_configs_load(name):
     c = load_config(p)
     assert c.estimators.airdata == "cmhe"  # only the declared weather changes
     assert c.airdata.wind_mps > 0.0
+
+
+def test_airdata_model_switch_reaches_the_estimator(tmp_path):
+    from gcs_monitor.monitor import build_estimators
+
+    c = load_config(_write(tmp_path, "[airdata]\nwind_accel_in_alpha = false\n"))
+    assert c.airdata.wind_accel_in_alpha is False
+    _, est = build_estimators(c)
+    assert est.model.params.wind_accel_in_alpha is False  # Wan2018 eq. 13
+    _, est_default = build_estimators(load_config(None))
+    assert est_default.model.params.wind_accel_in_alpha is True

@@ -81,7 +81,7 @@ def test_table3_aggregates_max_and_mean() -> None:
 
 def test_experiments_registered() -> None:
     assert {"wan2018_fig45", "wan2018_fig3", "wan2018_campaign",
-            "wan2018_onspeed"} <= set(wan2018.experiments())
+            "wan2018_onspeed", "wan2018_calibration"} <= set(wan2018.experiments())
 
 
 @pytest.mark.slow
