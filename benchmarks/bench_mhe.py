@@ -98,11 +98,14 @@ def build_casadi(est: AirDataEstimator, solver: str):  # type: ignore[no-untyped
     TH = ca.SX.sym("TH", 6, n)
     DT = ca.SX.sym("DT", n - 1)
 
-    def f(x, u, th, dt):  # Wan2018 eq. 20
+    wacc_on = est.model.params.wind_accel_in_alpha
+
+    def f(x, u, th, dt):  # Wan2018 eq. 20 (+ the eq. 8 wind-acceleration term, as the model)
         a = x[0]
         fa = -th[3] * ca.sin(a) + th[4] * ca.cos(a) + g * ca.cos(a - th[1])
         fv = th[3] * ca.cos(a) + th[4] * ca.sin(a) + g * ca.sin(a - th[1])
-        return x + dt * (ca.vertcat(fa / th[0] + th[2], fv, 0, 0) + u)
+        wacc = (u[2] * ca.sin(a - th[1]) - u[3] * ca.cos(a - th[1])) / th[0] if wacc_on else 0
+        return x + dt * (ca.vertcat(fa / th[0] + th[2] + wacc, fv, 0, 0) + u)
 
     def h(x, th):  # Wan2018 eqs. 11, 15, 16
         d = x[0] - th[1]

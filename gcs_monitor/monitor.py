@@ -29,6 +29,20 @@ LINK_CHECK_US = 1_000_000  # link statistics -> LINK alarms once per second of v
 GCS_SYSIDS = frozenset({255})  # ground stations: never monitored as vehicles
 
 
+def wind_envelope(cfg: MonitorConfig) -> Any:
+    """The declared weather of ``cfg.airdata`` as the model's WindEnvelope (Wan2018 eq. 21b)."""
+    from gcs_monitor.models.airdata import WindEnvelope
+
+    a = cfg.airdata
+    return WindEnvelope(wind_mps=a.wind_mps, wind_z_mps=a.wind_z_mps, shear_mps=a.shear_mps,
+                        shear_z_mps=a.shear_z_mps, shear_rate_mps2=a.shear_rate_mps2,
+                        turbulence_sigma_mps=a.turbulence_sigma_mps,
+                        turbulence_scale_m=a.turbulence_scale_m, n_sigma=a.n_sigma,
+                        flight_path_max_rad=a.flight_path_max_rad,
+                        model_margin_mps=a.model_margin_mps,
+                        model_rate_margin_mps2=a.model_rate_margin_mps2)
+
+
 def build_estimators(cfg: MonitorConfig) -> tuple[list[Estimator], Any | None]:
     """The IMU estimators and the air-data estimator the configuration asks for."""
     imu: list[Estimator] = []
@@ -42,9 +56,11 @@ def build_estimators(cfg: MonitorConfig) -> tuple[list[Estimator], Any | None]:
         imu.append(ImuHosmEstimator())
     airdata = None
     if cfg.estimators.airdata != "none":
-        from gcs_monitor.estimators.airdata import AirDataEstimator
+        from gcs_monitor.estimators.airdata import AirDataEstimator, AirDataEstimatorConfig
 
-        airdata = AirDataEstimator(variant=cfg.estimators.airdata)
+        est_cfg = AirDataEstimatorConfig(envelope=wind_envelope(cfg),
+                                         wind_accel_in_alpha=cfg.airdata.wind_accel_in_alpha)
+        airdata = AirDataEstimator(est_cfg, variant=cfg.estimators.airdata)
     return imu, airdata
 
 

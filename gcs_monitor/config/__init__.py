@@ -1,6 +1,7 @@
 """Monitor configuration: TOML -> frozen dataclasses, validated once (see defaults.toml)."""
 
 from gcs_monitor.config.loader import (
+    AirDataConfig,
     ConfigError,
     EstimatorsConfig,
     FdiConfig,
@@ -12,6 +13,6 @@ from gcs_monitor.config.loader import (
 )
 
 __all__ = [
-    "ConfigError", "EstimatorsConfig", "FdiConfig", "MonitorConfig", "SetConfig", "SinksConfig",
-    "TelemetryConfig", "load_config",
+    "AirDataConfig", "ConfigError", "EstimatorsConfig", "FdiConfig", "MonitorConfig", "SetConfig",
+    "SinksConfig", "TelemetryConfig", "load_config",
 ]

@@ -75,6 +75,78 @@ class EstimatorsConfig:
 
 
 @dataclass(frozen=True, slots=True)
+class AirDataConfig:
+    """The declared weather of the flight, from which the CMHE takes its wind bounds (SI).
+
+    Wan2018 eq. 21b, sec. VI-A: the wind bounds "need to be properly selected according to the
+    weather and flight conditions". This is that condition, declared like a forecast (TOML
+    section ``[airdata]``, keys in knots: ``wind_kts``, ``wind_z_kts``, ``shear_kts``,
+    ``shear_z_kts``, ``shear_rate_ktsps``, ``turbulence_sigma_kts``, plus
+    ``turbulence_scale_m``, ``n_sigma``, ``flight_path_max_deg``, ``model_margin_kts``,
+    ``model_rate_margin_ktsps``; ``wind_accel_in_alpha`` switches the model between eq. 8's
+    wind-acceleration term and Wan2018 eq. 13). The estimator turns it into bounds at every sample
+    (``gcs_monitor.models.airdata.envelope_bounds``). Defaults: 18 m/s wind, 3 m/s vertical
+    wind, 1.5 m/s^2 wind acceleration, no turbulence declared; with the model margins this
+    gives about the fixed box the CMHE used before the envelope existed (|W_x| <= 21-22 m/s,
+    |W_z| <= 8 m/s, |u_w| <= 2 m/s^2 wings level, against 20, 8, 2). One config file per flight
+    condition (configs/weather_*.toml).
+    """
+
+    wind_mps: float = 18.0
+    wind_z_mps: float = 3.0
+    shear_mps: float = 0.0
+    shear_z_mps: float = 0.0
+    shear_rate_mps2: float = 1.5
+    turbulence_sigma_mps: float = 0.0
+    turbulence_scale_m: float = 530.0  # Dryden L (Lu2016 sec. 2.2.1, MIL-F-8785C)
+    n_sigma: float = 3.0
+    flight_path_max_rad: float = 10.0 * DEG2RAD
+    model_margin_mps: float = 2.0
+    model_rate_margin_mps2: float = 0.5
+    wind_accel_in_alpha: bool = True  # eq. 8 term in the model (False: Wan2018 eq. 13)
+
+
+# TOML key -> (field, factor to SI)
+_AIRDATA_KEYS = {
+    "wind_kts": ("wind_mps", KT2MPS),
+    "wind_z_kts": ("wind_z_mps", KT2MPS),
+    "shear_kts": ("shear_mps", KT2MPS),
+    "shear_z_kts": ("shear_z_mps", KT2MPS),
+    "shear_rate_ktsps": ("shear_rate_mps2", KT2MPS),
+    "turbulence_sigma_kts": ("turbulence_sigma_mps", KT2MPS),
+    "turbulence_scale_m": ("turbulence_scale_m", 1.0),
+    "n_sigma": ("n_sigma", 1.0),
+    "flight_path_max_deg": ("flight_path_max_rad", DEG2RAD),
+    "model_margin_kts": ("model_margin_mps", KT2MPS),
+    "model_rate_margin_ktsps": ("model_rate_margin_mps2", KT2MPS),
+}
+
+
+def _airdata_config(data: Any, src: str) -> AirDataConfig:
+    if not isinstance(data, dict):
+        raise ConfigError(f"{src}: [airdata] must be a table")
+    kwargs: dict[str, Any] = {}
+    for key, value in data.items():
+        if key == "wind_accel_in_alpha":
+            if not isinstance(value, bool):
+                raise ConfigError(f"{src}: 'airdata.{key}' must be true or false, got {value!r}")
+            kwargs[key] = value
+            continue
+        if key not in _AIRDATA_KEYS:
+            raise ConfigError(f"{src}: unknown key 'airdata.{key}'; expected one of "
+                              f"{sorted([*_AIRDATA_KEYS, 'wind_accel_in_alpha'])}")
+        if isinstance(value, bool) or not isinstance(value, int | float) or value < 0:
+            raise ConfigError(f"{src}: 'airdata.{key}' must be a non-negative number, got "
+                              f"{value!r}")
+        name, factor = _AIRDATA_KEYS[key]
+        kwargs[name] = float(value) * factor
+    cfg = AirDataConfig(**kwargs)
+    if cfg.turbulence_scale_m <= 0.0:
+        raise ConfigError(f"{src}: 'airdata.turbulence_scale_m' must be positive")
+    return cfg
+
+
+@dataclass(frozen=True, slots=True)
 class SinksConfig:
     rerun_rate_hz: float = 20.0
     zenoh: bool = False
@@ -90,6 +162,7 @@ class MonitorConfig:
     fdi: FdiConfig = field(default_factory=FdiConfig)
     estimators: EstimatorsConfig = field(default_factory=EstimatorsConfig)
     sinks: SinksConfig = field(default_factory=SinksConfig)
+    airdata: AirDataConfig = field(default_factory=AirDataConfig)
 
 
 _SET_UNITS = {"aoa": "deg", "cas": "kts", "acc": "mps2", "gyro": "degps",
@@ -192,7 +265,7 @@ def load_config(path: Path | None = None) -> MonitorConfig:
         raise ConfigError(f"{src}: no such config file") from None
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{src}: not valid TOML: {exc}") from None
-    allowed = {"telemetry", "fdi", "estimators", "sinks"}
+    allowed = {"telemetry", "fdi", "estimators", "sinks", "airdata"}
     for key in data:
         if key not in allowed:
             raise ConfigError(f"{src}: unknown section [{key}]; expected one of {sorted(allowed)}")
@@ -211,5 +284,6 @@ def load_config(path: Path | None = None) -> MonitorConfig:
             raise ConfigError(f"{src}: unknown key 'fdi.{key}'; expected one of "
                               f"{sorted(_SET_UNITS)}")
         sets[key] = _set_config(key, value, src)
+    air = _airdata_config(data.get("airdata", {}), src)
     return MonitorConfig(telemetry=tel, fdi=dataclasses.replace(FdiConfig(), **sets),
-                         estimators=est, sinks=sinks)
+                         estimators=est, sinks=sinks, airdata=air)

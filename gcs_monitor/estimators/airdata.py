@@ -41,7 +41,10 @@ from gcs_monitor.models.airdata import (
     N_U,
     N_X,
     AirDataModel,
+    AirDataModelParams,
+    WindEnvelope,
     airdata_initial_state,
+    envelope_bounds,
 )
 from gcs_monitor.telemetry.frame import Frame
 
@@ -59,8 +62,14 @@ class AirDataEstimatorConfig:
     Wan2018 gives N = 3, n_kappa = n_QP = 2 (sec. V-C), p_w = 0.01 and q_w = 0.1 or 1
     (Figs. 3-5) and the rule "R = measurement noise variances"; the other weights and the wind
     bounds are not published, ours are chosen for a transport aircraft (see
-    docs/papers-notes.md "Wan2018"). Bounds are per flight condition: replace them with
-    :meth:`AirDataEstimator.set_wind_bounds`.
+    docs/papers-notes.md "Wan2018").
+
+    Wind bounds (eq. 21b) per flight condition: with ``envelope`` set (the declared weather of
+    the flight) they are recomputed at every air-data sample from it, the measured V_g, bank
+    angle and t_s (:func:`gcs_monitor.models.airdata.envelope_bounds`; Wan2018 sec. III-B:
+    "the bounds ... can be time varying"); with ``envelope=None`` the fixed
+    ``wind_x_max_mps``, ``wind_z_max_mps``, ``wind_rate_max_mps2`` below hold, and
+    :meth:`AirDataEstimator.set_wind_bounds` replaces them.
     """
 
     horizon_n: int = 3  # Wan2018 sec. V-C
@@ -91,6 +100,9 @@ class AirDataEstimatorConfig:
     wind_x_max_mps: float = 20.0
     wind_z_max_mps: float = 8.0
     wind_rate_max_mps2: float = 2.0
+    envelope: WindEnvelope | None = None
+    # eq. 8's wind-acceleration term in alpha_dot (AirDataModelParams); False = eq. 13 exactly
+    wind_accel_in_alpha: bool = True
     kappa_init: float = 1.0e-2
     n_s_max: int = 12
 
@@ -104,7 +116,9 @@ class AirDataEstimator:
         self.cfg = config or AirDataEstimatorConfig()
         self.variant = variant
         self.name = f"airdata_{variant}"
-        self.model = AirDataModel()
+        self.model = AirDataModel(
+            AirDataModelParams(wind_accel_in_alpha=self.cfg.wind_accel_in_alpha)
+        )
         c = self.cfg
         self.weights = MheWeights(
             p_diag=np.array([c.p_alpha_rad2, c.p_v_m2ps2, c.p_w_m2ps2, c.p_w_m2ps2]),
@@ -120,16 +134,32 @@ class AirDataEstimator:
 
     # ------------------------------------------------------------------ public API
     def set_wind_bounds(
-        self, wind_x_max_mps: float, wind_z_max_mps: float, wind_rate_max_mps2: float
+        self,
+        wind_x_max_mps: float,
+        wind_z_max_mps: float,
+        wind_rate_max_mps2: float,
+        *,
+        wind_rate_z_max_mps2: float | None = None,
     ) -> None:
-        """Symmetric bounds on W_x, W_z and on u_w (Wan2018 eq. 21b), per flight condition."""
+        """Symmetric bounds on W_x, W_z and on u_wx, u_wz (Wan2018 eq. 21b), per flight
+        condition; ``wind_rate_z_max_mps2`` defaults to ``wind_rate_max_mps2``."""
         inf = math.inf
+        rz = wind_rate_max_mps2 if wind_rate_z_max_mps2 is None else wind_rate_z_max_mps2
         self.bounds = MheBounds(
             x_lb=np.array([-inf, -inf, -wind_x_max_mps, -wind_z_max_mps]),
             x_ub=np.array([inf, inf, wind_x_max_mps, wind_z_max_mps]),
-            u_lb=np.array([-inf, -inf, -wind_rate_max_mps2, -wind_rate_max_mps2]),
-            u_ub=np.array([inf, inf, wind_rate_max_mps2, wind_rate_max_mps2]),
+            u_lb=np.array([-inf, -inf, -wind_rate_max_mps2, -rz]),
+            u_ub=np.array([inf, inf, wind_rate_max_mps2, rz]),
         )
+
+    def _schedule_bounds(self, theta_p: Vec, dt_s: float, roll_rad: float) -> None:
+        """Bounds of the current flight condition from the declared envelope (if any)."""
+        env = self.cfg.envelope
+        if env is None:
+            return
+        b = envelope_bounds(env, float(theta_p[0]), dt_s, roll_rad, self.model.params.g_mps2)
+        self.set_wind_bounds(b.wind_x_max_mps, b.wind_z_max_mps, b.rate_x_max_mps2,
+                             wind_rate_z_max_mps2=b.rate_z_max_mps2)
 
     def set_fused_measurements(self, aoa_rad: float | None, cas_mps: float | None) -> None:
         """Fused AoA / CAS of Wan2018 eq. 19 for the next :meth:`step`.
@@ -181,13 +211,16 @@ class AirDataEstimator:
         if theta_p is None:
             return Estimate.unavailable(self.name, frame.t_us, why)
         y, mask = self._measurements(frame, theta_p, fused)
+        roll = float(frame.euler_rad[0]) if frame.euler_rad is not None else 0.0
         if self._t_prev_us is None or self._theta_prev is None:
+            self._schedule_bounds(theta_p, self.cfg.dt_nominal_s, roll)
             self._start(frame.t_us, theta_p, y, mask)
             return Estimate(name=self.name, t_us=frame.t_us, reason="initialised")
         dt_s = (frame.t_us - self._t_prev_us) * 1e-6
         if not 0.0 < dt_s <= self.cfg.max_dt_s:
             self._start(frame.t_us, theta_p, y, mask)
             return Estimate(name=self.name, t_us=frame.t_us, reason=f"air-data gap {dt_s:.3f} s")
+        self._schedule_bounds(theta_p, dt_s, roll)
 
         # one-step-ahead prediction x_hat_{k|k-1} = F(x_hat_{k-1|k-1}, 0, Theta_{k-1}) (eq. 29)
         if self._mhe is not None:

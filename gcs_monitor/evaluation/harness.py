@@ -29,6 +29,7 @@ This module drives the simulator (``sim_vehicle``): evaluation needs ground trut
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import multiprocessing
@@ -41,7 +42,8 @@ from typing import Any
 
 import numpy as np
 
-from gcs_monitor.config import MonitorConfig
+from gcs_monitor.config import AirDataConfig, MonitorConfig
+from gcs_monitor.core.units import KT2MPS
 from gcs_monitor.core.types import ChannelId
 from gcs_monitor.fdi.baselines import MedianVoteMonitor, MedianVoteParams, fixed_threshold_monitor
 from gcs_monitor.fdi.events import AlarmEvent, AlarmKind, AlarmState
@@ -245,9 +247,52 @@ def _rms(x: np.ndarray) -> float:
     return float(np.sqrt(np.mean(x * x))) if x.size else math.nan
 
 
-def run_one(index: int, sc: Any, cfg: MonitorConfig, *, keep_series: bool = False) -> RunRecord:
-    """Simulate one scenario, monitor its MAVLink bytes, score the run against its truth."""
+def _ceil_to(x: float, step: float) -> float:
+    return math.ceil(round(abs(x) / step, 9)) * step
+
+
+def declared_weather(sc: Any, base: AirDataConfig | None = None) -> AirDataConfig:
+    """The weather a scenario declares, as the monitor receives it (a forecast).
+
+    Built from the scenario's wind *specification* (kind, steady wind, shear amplitude, Dryden
+    intensity and scale), never from the simulated wind samples, and coarsened as a forecast
+    is: wind speed (not direction) rounded up to 5 kt, vertical wind to 1 kt, shear to 5 kt,
+    turbulence intensity to 1 kt. Shear acceleration: the simulator's microburst
+    (``sim_vehicle.environment.wind``) changes the wind by ``A`` over ``SHEAR_DURATION_S`` along
+    ``A/2 (1 - cos(2 pi t / T))``, whose largest rate is ``pi A / T``. The other envelope fields
+    (``n_sigma``, flight path) come from ``base``.
+    """
+    from sim_vehicle.environment.wind import SHEAR_DURATION_S, SHEAR_VERTICAL_RATIO
+
+    b = base or AirDataConfig()
+    w = sc.wind
+    kt = KT2MPS
+    mean = (0.0, 0.0, 0.0) if w.kind == "calm" else w.mean_ned_mps
+    wind = _ceil_to(math.hypot(mean[0], mean[1]) / kt, 5.0) * kt
+    wind_z = _ceil_to(mean[2] / kt, 1.0) * kt
+    shear = shear_z = shear_rate = 0.0
+    if "shear" in w.kind:
+        shear = _ceil_to(w.shear_amplitude_mps / kt, 5.0) * kt
+        shear_z = SHEAR_VERTICAL_RATIO * shear
+        shear_rate = math.pi * shear / SHEAR_DURATION_S
+    sigma = _ceil_to(w.turbulence_sigma_mps / kt, 1.0) * kt if "turbulence" in w.kind else 0.0
+    return dataclasses.replace(b, wind_mps=wind, wind_z_mps=wind_z, shear_mps=shear,
+                               shear_z_mps=shear_z, shear_rate_mps2=shear_rate,
+                               turbulence_sigma_mps=sigma,
+                               turbulence_scale_m=w.turbulence_scale_m)
+
+
+def run_one(index: int, sc: Any, cfg: MonitorConfig, *, keep_series: bool = False,
+            declare_weather: bool = True) -> RunRecord:
+    """Simulate one scenario, monitor its MAVLink bytes, score the run against its truth.
+
+    With ``declare_weather`` the monitor receives the scenario's declared weather
+    (:func:`declared_weather`) as its ``[airdata]`` envelope, as a flight receives its
+    forecast; otherwise ``cfg.airdata`` is used as given.
+    """
     t0 = time.perf_counter()
+    if declare_weather:
+        cfg = dataclasses.replace(cfg, airdata=declared_weather(sc, cfg.airdata))
     rec = _AirRecorder(cfg)
     mon = Monitor(cfg, on_step=rec)
     rs = RunState()

@@ -28,6 +28,7 @@ from gcs_monitor.evaluation.harness import (
     METHOD_MEDIAN,
     METHOD_MONITOR,
     RunRecord,
+    declared_weather,
     run_one,
 )
 from gcs_monitor.fdi.metrics import MetricsRow, metrics_table
@@ -51,15 +52,18 @@ UNITS = {"aoa": ("deg", DEG2RAD), "cas": ("kt", KT2MPS)}
 
 def wind_scenarios() -> dict[str, Any]:
     """Three wind scenarios of growing size (Wan2018 Fig. 2 is not in the text; ours:
-    1 light turbulence with a steady wind, 2 shear of 10 m/s + moderate turbulence, 3 shear of
-    25 m/s + severe turbulence, beyond the CMHE's wind-rate bound)."""
+    1 light turbulence with a steady wind, 2 shear of 10 m/s + moderate turbulence, 3 a 22 m/s
+    head wind + 25 m/s shear + severe turbulence, beyond the bounds assumed for scenario 2
+    (Fig. 3))."""
     from sim_vehicle.scenario import WindSpec
 
     return {
         "1": WindSpec(kind="turbulence", mean_ned_mps=(8.0, 4.0, 0.0), turbulence_sigma_mps=1.0),
         "2": WindSpec(kind="shear+turbulence", mean_ned_mps=(12.0, 6.0, 0.0),
                       turbulence_sigma_mps=2.0, shear_start_s=15.0, shear_amplitude_mps=10.0),
-        "3": WindSpec(kind="shear+turbulence", mean_ned_mps=(20.0, 10.0, 0.0),
+        # head wind (the runs fly north): the 25 m/s shear outflow adds to the steady 20 m/s,
+        # the along-heading wind reaches ~45 m/s + gusts, beyond scenario 2's envelope
+        "3": WindSpec(kind="shear+turbulence", mean_ned_mps=(-20.0, -10.0, 0.0),
                       turbulence_sigma_mps=3.54, shear_start_s=15.0, shear_amplitude_mps=25.0),
     }
 
@@ -98,6 +102,16 @@ def variant_config(variant: str, base: MonitorConfig | None = None) -> MonitorCo
     cfg = base or MonitorConfig()
     return dataclasses.replace(cfg, estimators=EstimatorsConfig(imu_ts=False, imu_hosm=False,
                                                                 airdata=variant))
+
+
+# Thresholds no fault-free residual reaches: the FDI then never isolates (calibration runs).
+OPEN_LOOP_AOA_RAD = 1.0e3
+OPEN_LOOP_CAS_MPS = 1.0e4
+
+
+def open_loop(cfg: MonitorConfig) -> MonitorConfig:
+    """``cfg`` with thresholds no residual reaches: every instance stays in the fusion."""
+    return with_thresholds(cfg, OPEN_LOOP_AOA_RAD, OPEN_LOOP_CAS_MPS)
 
 
 def with_thresholds(cfg: MonitorConfig, aoa_rad: float, cas_mps: float) -> MonitorConfig:
@@ -148,9 +162,12 @@ def _indexed(job: tuple[Callable[[Any], Any], int, Any]) -> tuple[int, Any]:
     return i, fn(w)
 
 
-def _series_run(job: tuple[Any, MonitorConfig]) -> RunRecord:
-    sc, cfg = job
-    return run_one(0, sc, cfg, keep_series=True)
+def _series_run(job: tuple[Any, MonitorConfig] | tuple[Any, MonitorConfig, bool]) -> RunRecord:
+    """One run with series; a third job entry False keeps ``cfg.airdata`` instead of the
+    scenario's declared weather."""
+    sc, cfg = job[0], job[1]
+    declare = job[2] if len(job) > 2 else True  # type: ignore[misc]
+    return run_one(0, sc, cfg, keep_series=True, declare_weather=declare)
 
 
 def _err_stats(rec: RunRecord) -> dict[str, tuple[float, float]]:
@@ -285,20 +302,31 @@ def wan2018_fig3(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
     out = Path(out_dir)
     dur = 40.0 if quick else 120.0
     winds = wind_scenarios()
-    work = [(fig_scenario(f"fig3_{v}_w{k}", w, dur), variant_config(v))
+    # Wan2018 sec. VI-A: one set of assumed bounds for all three scenarios, which winds 1 and 2
+    # respect and wind 3 exceeds. Ours: the declared weather of wind scenario 2 (its forecast,
+    # harness.declared_weather), kept for all three runs.
+    # Open loop (no isolation): Fig. 3 measures the residual generator's robustness; with the
+    # default J_th in place a false alarm would remove the CAS set and the "fault-free J" after
+    # it would be the model-only drift (see calibrate_campaign). The last column says whether
+    # the default J_th (MonitorConfig: 1 deg, 4 kt) would have been crossed.
+    assumed = declared_weather(fig_scenario("fig3_assumed", winds["2"], dur))
+    work = [(fig_scenario(f"fig3_{v}_w{k}", w, dur),
+             dataclasses.replace(open_loop(variant_config(v)), airdata=assumed), False)
             for k, w in winds.items() for v in VARIANTS]
+    default_th = MonitorConfig().fdi
     recs = _pool(_series_run, work, jobs, "fig3")
     rows = []
-    for (sc, cfg), rec in zip(work, recs, strict=True):
+    for (sc, cfg, _), rec in zip(work, recs, strict=True):
         s = rec.series or {}
         t = s["t_us"] * 1e-6
         settled = t >= 5.0  # after the MHE's start-up transient
-        n_alarm = rec.raised.get(METHOD_MONITOR, 0)
-        rows.append([cfg.estimators.airdata, sc.name.split("_w")[-1],
-                     float(np.nanmax(s["aoa.rms"][settled])) / DEG2RAD,
-                     float(np.nanmax(s["cas.rms"][settled])) / KT2MPS, n_alarm])
+        ja, jc = float(np.nanmax(s["aoa.rms"][settled])), float(np.nanmax(s["cas.rms"][settled]))
+        over = [g for g, j, th in (("AoA", ja, default_th.aoa.threshold),
+                                   ("CAS", jc, default_th.cas.threshold)) if j > th]
+        rows.append([cfg.estimators.airdata, sc.name.split("_w")[-1], ja / DEG2RAD,
+                     jc / KT2MPS, "+".join(over) or "none"])
     _csv(out / "wan2018_fig3.csv", ["variant", "wind", "max_J_aoa_deg", "max_J_cas_kts",
-                                    "alarms"], rows)
+                                    "over_default_J_th"], rows)
     plt = _plt()
     fig, axs = plt.subplots(1, 2, figsize=(9, 3.5))
     xs = np.arange(len(winds))
@@ -315,7 +343,8 @@ def wan2018_fig3(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
     fig.tight_layout()
     fig.savefig(out / "wan2018_fig3.png", dpi=120)
     plt.close(fig)
-    return _md(["estimator", "wind", "max J AoA [deg]", "max J CAS [kts]", "alarms"],
+    return _md(["estimator", "wind", "max J AoA [deg]", "max J CAS [kts]",
+                "over default J_th (1 deg, 4 kt)"],
                [[r[0].upper(), r[1], _f(r[2], 3), _f(r[3], 3), r[4]] for r in rows])
 
 
@@ -344,9 +373,16 @@ def calibrate_campaign(n_runs: int, jobs: int, duration_s: tuple[float, float],
     """J_th per set from fault-free runs (Wan2018 sec. VI-B: the worst fault-free residual RMS
     so that the fault-free runs raise no alarm): ``1.5 x max J`` over all healthy instances of
     ``n_runs`` fault-free runs of the calibration seed (harness ``j_calibrated``).
+    The calibration runs are open loop (:func:`open_loop`): no instance is isolated, so the J
+    measured is the residual generator's own fault-free level. (Calibrating with the default
+    thresholds in place let false isolations in the calibration runs remove a whole set from
+    the MHE -- Table I configuration II/III -- after which the model-only prediction drifts:
+    that, not the residual generator, produced the 7.9 deg / 54 kt "worst fault-free J" of
+    the first campaign.)
+
     Returns (thresholds, worst fault-free J), SI."""
     scs = campaign_scenarios(n_runs, seed, duration_s, fault_free_only=True)
-    work = [(i, sc, base) for i, sc in enumerate(scs)]
+    work = [(i, sc, open_loop(base)) for i, sc in enumerate(scs)]
     res = _pool(_campaign_run, work, jobs, "calibrate", progress)
     th = {s: max(r.j_calibrated.get(s, 0.0) for r, _ in res) for s in ("aoa", "cas")}
     jmax = {s: max(r.j_max.get(s, 0.0) for r, _ in res) for s in ("aoa", "cas")}
@@ -405,8 +441,9 @@ def campaign_markdown(res: dict[str, Any], n_runs: int, n_cal: int,
         + ", ".join(f"{k}: {v}" for k, v in sorted(cats.items())) + f"), durations "
         f"{duration_s[0]:g}-{duration_s[1]:g} s, {res['sim_s']:.0f} simulated s in "
         f"{res['wall_s']:.0f} s wall. Estimator: {res['variant'].upper()}.",
-        f"Thresholds from {n_cal} fault-free runs of seed {CALIBRATION_SEED} (1.5 x worst "
-        f"fault-free J): J_th AoA = {th['aoa'] / DEG2RAD:.3f} deg (worst J "
+        f"Thresholds from {n_cal} fault-free runs of seed {CALIBRATION_SEED}, run open loop (no "
+        f"isolation), each with its declared weather (1.5 x worst fault-free J): J_th AoA = "
+        f"{th['aoa'] / DEG2RAD:.3f} deg (worst J "
         f"{res['jmax_cal']['aoa'] / DEG2RAD:.3f}), CAS = {th['cas'] / KT2MPS:.2f} kt (worst J "
         f"{res['jmax_cal']['cas'] / KT2MPS:.2f}); Wan2018: 2.9 deg, 12 kts.",
         "",
@@ -433,7 +470,27 @@ def campaign_markdown(res: dict[str, Any], n_runs: int, n_cal: int,
         rows3.append([f"ours {k}", *[_f(x, 3) for x in t3[k]]])
     lines.append(_md(["", "max AoA [deg]", "max CAS [kts]", "mean AoA [deg]", "mean CAS [kts]"],
                      rows3))
+    lines += ["", "Per fault family (Table II), monitor: faults detected / injected, mean and max "
+              "delay:", ""]
+    lines.append(_md(["family", "AoA detected", "AoA delay mean / max [s]", "CAS detected",
+                      "CAS delay mean / max [s]"], per_family_rows(res["records"])))
     return "\n".join(lines)
+
+
+def per_family_rows(recs: Sequence[RunRecord]) -> list[list[str]]:
+    """Detection per Table II family and set (monitor), for the campaign report."""
+    rows = []
+    fams = sorted({f.kind for r in recs for f in r.fault_results})
+    for fam in fams:
+        row = [fam]
+        for g in ("aoa", "cas"):
+            fr = [f for r in recs for f in r.fault_results
+                  if f.method == METHOD_MONITOR and f.kind == fam and f.channel.startswith(g)]
+            d = [f.delay_s for f in fr if f.detected]
+            row += [f"{len(d)} / {len(fr)}",
+                    f"{_f(float(np.mean(d)))} / {_f(max(d))}" if d else "-"]
+        rows.append(row)
+    return rows
 
 
 def _campaign_files(res: dict[str, Any], out: Path) -> None:
@@ -470,6 +527,52 @@ def _campaign_files(res: dict[str, Any], out: Path) -> None:
     plt.close(fig)
 
 
+def _calibration_diag_run(job: tuple[int, Any, MonitorConfig, bool]) -> dict[str, Any]:
+    i, sc, cfg, declare = job
+    rec = run_one(i, sc, cfg, keep_series=False, declare_weather=declare)
+    return {"i": i, "manoeuvre": sc.manoeuvre.kind, "wind": sc.wind.kind,
+            "sigma_mps": sc.wind.turbulence_sigma_mps,
+            "j_aoa": rec.j_max.get("aoa", math.nan), "j_cas": rec.j_max.get("cas", math.nan),
+            "alarms": rec.raised.get(METHOD_MONITOR, 0)}
+
+
+def wan2018_calibration(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
+    """Diagnosis of the campaign thresholds: the worst fault-free J of the calibration runs
+    (seed 1000) under four set-ups: closed loop with the default J_th (1 deg, 4 kt) and the
+    default fixed wind box (what the first campaign calibrated with), open loop with the fixed
+    box, open loop with each run's declared weather on the eq. 13 model, and the same with
+    eq. 8's wind-acceleration term (what :func:`calibrate_campaign` does)."""
+    out = Path(out_dir)
+    n, dur = (6, (40.0, 60.0)) if quick else (40, FULL_DURATION_S)
+    scs = campaign_scenarios(n, CALIBRATION_SEED, dur, fault_free_only=True)
+    base = variant_config("cmhe")
+    eq13 = dataclasses.replace(base, airdata=dataclasses.replace(base.airdata,
+                                                                 wind_accel_in_alpha=False))
+    setups = (("closed loop, default J_th, fixed box", base, False),
+              ("open loop, fixed box", open_loop(base), False),
+              ("open loop, declared weather, eq. 13 (no eq. 8 term)", open_loop(eq13), True),
+              ("open loop, declared weather", open_loop(base), True))
+    rows, csv_rows = [], []
+    for name, cfg, declare in setups:
+        res = _pool(_calibration_diag_run, [(i, sc, cfg, declare) for i, sc in enumerate(scs)],
+                    jobs, name[:20], not quick)
+        wa = max(res, key=lambda r: r["j_aoa"])
+        wc = max(res, key=lambda r: r["j_cas"])
+        rows.append([name, _f(wa["j_aoa"] / DEG2RAD, 3),
+                     f"{wa['i']} ({wa['manoeuvre']}, {wa['wind']}, σ {wa['sigma_mps']:g} m/s)",
+                     _f(wc["j_cas"] / KT2MPS, 2),
+                     f"{wc['i']} ({wc['manoeuvre']}, {wc['wind']}, σ {wc['sigma_mps']:g} m/s)",
+                     sum(1 for r in res if r["alarms"])])
+        csv_rows += [[name, r["i"], r["manoeuvre"], r["wind"], r["sigma_mps"],
+                      r["j_aoa"] / DEG2RAD, r["j_cas"] / KT2MPS, r["alarms"]] for r in res]
+    _csv(out / "wan2018_calibration.csv", ["setup", "run", "manoeuvre", "wind", "sigma_mps",
+                                           "max_J_aoa_deg", "max_J_cas_kts", "alarms"], csv_rows)
+    return (f"{n} fault-free calibration runs (seed {CALIBRATION_SEED}), durations "
+            f"{dur[0]:g}-{dur[1]:g} s.\n\n"
+            + _md(["set-up", "worst J AoA [deg]", "run", "worst J CAS [kt]", "run",
+                   "runs with alarms"], rows))
+
+
 def wan2018_campaign(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
     """Wan2018 sec. VI-B: 249 runs (140 fault-free), Tables III and IV, median-vote baseline."""
     out = Path(out_dir)
@@ -496,6 +599,7 @@ def experiments() -> dict[str, Callable[[Path, int, bool], str]]:
         "wan2018_fig3": wan2018_fig3,
         "wan2018_campaign": wan2018_campaign,
         "wan2018_onspeed": wan2018_onspeed,
+        "wan2018_calibration": wan2018_calibration,
     }
     return out
 

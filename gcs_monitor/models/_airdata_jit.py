@@ -37,7 +37,7 @@ def _cas_and_derivative(tas, alt, consts):
 
 
 @jit
-def linearise_horizon(n, x_lin, u_lin, th, dts, ym, mk, g, consts, a, b, f, cm, ry):
+def linearise_horizon(n, x_lin, u_lin, th, dts, ym, mk, g, k_wacc, consts, a, b, f, cm, ry):
     """Wan2018 eq. 42 over nodes 0..n-1 (``filters.mhe`` linearisation loop, this model).
 
     Writes A_i = dF/dx, B_i = t_s I, defects f_i = F(x_i, u_i) - x_{i+1} (i < n-1), and the
@@ -47,7 +47,8 @@ def linearise_horizon(n, x_lin, u_lin, th, dts, ym, mk, g, consts, a, b, f, cm, 
     ----------
     x_lin : (N, 4) linearisation states; u_lin : (N-1, 4) inputs; th : (N, 6) Theta_i
     dts : (N,) t_s from node i to i+1; ym, mk : (N, 4) outputs and output mask
-    g : gravity (m/s^2); consts : see ``airdata._JIT_CONSTS``
+    g : gravity (m/s^2); k_wacc : 1.0 to keep the eq. 8 wind-acceleration term in alpha
+    (``AirDataModelParams.wind_accel_in_alpha``), 0.0 for eq. 13; consts : ``airdata._JIT_CONSTS``
     """
     for i in range(n):
         alpha, vg_x, wx, wz = x_lin[i, 0], x_lin[i, 1], x_lin[i, 2], x_lin[i, 3]
@@ -80,7 +81,9 @@ def linearise_horizon(n, x_lin, u_lin, th, dts, ym, mk, g, consts, a, b, f, cm, 
             f_alpha = -ax * sa + az * ca + g * math.cos(alpha - theta)
             f_v = ax * ca + az * sa + g * math.sin(alpha - theta)
             # eq. 20 and the defect of eq. 42
-            f[i, 0] = alpha + dt * (f_alpha / vg + q + u_lin[i, 0]) - x_lin[i + 1, 0]
+            uwx, uwz = u_lin[i, 2], u_lin[i, 3]
+            wacc = k_wacc * (uwx * sd - uwz * cd) / vg  # eq. 8 term (or 0: eq. 13)
+            f[i, 0] = alpha + dt * (f_alpha / vg + q + u_lin[i, 0]) + dt * wacc - x_lin[i + 1, 0]
             f[i, 1] = vg_x + dt * (f_v + u_lin[i, 1]) - x_lin[i + 1, 1]
             f[i, 2] = wx + dt * (0.0 + u_lin[i, 2]) - x_lin[i + 1, 2]
             f[i, 3] = wz + dt * (0.0 + u_lin[i, 3]) - x_lin[i + 1, 3]
@@ -94,3 +97,7 @@ def linearise_horizon(n, x_lin, u_lin, th, dts, ym, mk, g, consts, a, b, f, cm, 
                 b[i, r, r] = dt
             a[i, 0, 0] += dt * d_falpha / vg
             a[i, 1, 0] = dt * d_fv
+            if k_wacc != 0.0:
+                a[i, 0, 0] += dt * (uwx * cd + uwz * sd) / vg
+                b[i, 0, 2] = dt * sd / vg
+                b[i, 0, 3] = -dt * cd / vg

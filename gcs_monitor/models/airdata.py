@@ -56,9 +56,20 @@ class AirDataModelParams:
 
     ``g_mps2`` is the gravity of eqs. 5-9; Wan2018 does not give a value, we use standard
     gravity (the altitude dependence is far below the model's approximation errors).
+
+    ``wind_accel_in_alpha`` keeps the wind-acceleration term of eq. 8,
+    ``f_w,alpha / V_t = (W_x_dot sin(alpha - theta) - W_z_dot cos(alpha - theta)) / V_t``, with
+    the wind acceleration taken from the unknown wind input u_w of eq. 1 (and V_t ~ V_g as in
+    eq. 13). Wan2018 eq. 12 drops it ("V_t >> f_w,alpha"); for its winds (accelerations below
+    15 kts/s) the term is below 0.04 rad/s, but Dryden turbulence sampled at 20 Hz changes the
+    wind by 10-30 m/s^2 from sample to sample, so a vertical gust moves alpha by W_z_dot / V
+    ~ 5 deg/s that eq. 13 attributes to nothing (the fault-free AoA residual then lags every
+    gust; see docs/papers-notes.md "Wan2018"). With the term, u_wz moves alpha and W_z together
+    and leaves V_z unchanged, as a gust does. False gives eq. 13 exactly.
     """
 
     g_mps2: float = c.GRAVITY_STD_MPS2
+    wind_accel_in_alpha: bool = True
 
 
 def isa_temp_pbar(alt_m: float) -> tuple[float, float]:
@@ -122,16 +133,23 @@ def airdata_derivative(x: Vec, theta_p: Vec, p: AirDataModelParams) -> Vec:
 
 
 def airdata_f(x: Vec, u: Vec, theta_p: Vec, dt_s: float, p: AirDataModelParams) -> Vec:
-    """Discrete transition x_{k+1} = x_k + t_s (F(x_k, Theta_k) + u_k) (Wan2018 eq. 20a-c).
+    """Discrete transition x_{k+1} = x_k + t_s (F(x_k, Theta_k) + u_k) (Wan2018 eq. 20a-c),
+    plus ``t_s f_w,alpha(u_w) / V_g`` in alpha when ``p.wind_accel_in_alpha`` (eq. 8).
 
     Parameters
     ----------
     x : (4,) state; u : (4,) unknown inputs (rates); theta_p : (6,) Theta_k; dt_s : t_s (s)
     """
-    return x + dt_s * (airdata_derivative(x, theta_p, p) + u)
+    out = x + dt_s * (airdata_derivative(x, theta_p, p) + u)
+    if p.wind_accel_in_alpha:
+        d = x[IX_AOA] - theta_p[IT_THETA]
+        out[IX_AOA] += dt_s * (u[IX_WX] * math.sin(d) - u[IX_WZ] * math.cos(d)) / theta_p[IT_VG]
+    return out
 
 
-def airdata_f_jac_x(x: Vec, theta_p: Vec, dt_s: float, p: AirDataModelParams) -> Mat:
+def airdata_f_jac_x(
+    x: Vec, theta_p: Vec, dt_s: float, p: AirDataModelParams, u: Vec | None = None
+) -> Mat:
     """A_k = dF/dx of :func:`airdata_f` (Wan2018 eq. 23 with a_12 = 0, Remark 1)."""
     alpha = x[IX_AOA]
     vg, theta, ax, az = theta_p[IT_VG], theta_p[IT_THETA], theta_p[IT_AX], theta_p[IT_AZ]
@@ -141,12 +159,24 @@ def airdata_f_jac_x(x: Vec, theta_p: Vec, dt_s: float, p: AirDataModelParams) ->
     a = np.eye(N_X)
     a[IX_AOA, IX_AOA] += dt_s * d_falpha / vg
     a[IX_VG, IX_AOA] = dt_s * d_fv
+    if p.wind_accel_in_alpha and u is not None:
+        d = alpha - theta
+        a[IX_AOA, IX_AOA] += dt_s * (u[IX_WX] * math.cos(d) + u[IX_WZ] * math.sin(d)) / vg
     return a
 
 
-def airdata_f_jac_u(dt_s: float) -> Mat:
-    """B_k = dF/du = t_s I (Wan2018 eq. 20)."""
-    return dt_s * np.eye(N_X)
+def airdata_f_jac_u(
+    dt_s: float, x: Vec | None = None, theta_p: Vec | None = None,
+    p: AirDataModelParams | None = None,
+) -> Mat:
+    """B_k = dF/du = t_s I (Wan2018 eq. 20), plus the u_w column entries of the eq. 8 term in
+    the alpha row when ``p.wind_accel_in_alpha`` (``x``, ``theta_p`` and ``p`` given)."""
+    b = dt_s * np.eye(N_X)
+    if p is not None and p.wind_accel_in_alpha and x is not None and theta_p is not None:
+        d = x[IX_AOA] - theta_p[IT_THETA]
+        b[IX_AOA, IX_WX] = dt_s * math.sin(d) / theta_p[IT_VG]
+        b[IX_AOA, IX_WZ] = -dt_s * math.cos(d) / theta_p[IT_VG]
+    return b
 
 
 def airdata_h(x: Vec, theta_p: Vec) -> Vec:
@@ -207,10 +237,10 @@ class AirDataModel:
         return airdata_f(x, u, theta_p, dt_s, self.params)
 
     def f_jac_x(self, x: Vec, u: Vec, theta_p: Vec, dt_s: float) -> Mat:
-        return airdata_f_jac_x(x, theta_p, dt_s, self.params)
+        return airdata_f_jac_x(x, theta_p, dt_s, self.params, u)
 
     def f_jac_u(self, x: Vec, u: Vec, theta_p: Vec, dt_s: float) -> Mat:
-        return airdata_f_jac_u(dt_s)
+        return airdata_f_jac_u(dt_s, x, theta_p, self.params)
 
     def h(self, x: Vec, theta_p: Vec) -> Vec:
         return airdata_h(x, theta_p)
@@ -244,8 +274,9 @@ class AirDataModel:
         if kern is None:
             return False
         kern.linearise_horizon(
-            n, x_lin, u_lin, th, dts, ym, mk, self.params.g_mps2, _JIT_CONSTS, a, b, f, cm, ry
-        )
+            n, x_lin, u_lin, th, dts, ym, mk, self.params.g_mps2,
+            1.0 if self.params.wind_accel_in_alpha else 0.0, _JIT_CONSTS, a, b, f, cm, ry,
+        )  # fmt: skip
         return True
 
 
@@ -270,3 +301,110 @@ class CompiledAirData(Protocol):
 def compiled_kernels() -> CompiledAirData | None:
     """The numba version of this model, imported on first use (None if numba is missing)."""
     return optional_module("gcs_monitor.models._airdata_jit")  # type: ignore[return-value]
+
+
+# ------------------------------------------------------------------------------------------------
+# Wind bounds of the CMHE from a declared weather envelope (Wan2018 eq. 21b, secs. IV and VI-A)
+# ------------------------------------------------------------------------------------------------
+
+# MIL-F-8785C / Lu2016 sec. 2.2.1 Dryden scale length used when an envelope does not give one.
+DRYDEN_SCALE_M = 530.0
+
+
+@dataclass(frozen=True, slots=True)
+class WindEnvelope:
+    """The weather a flight is declared to meet (a forecast, not measured wind), SI units.
+
+    Wan2018 sec. IV and VI-A: the bounds of eq. 21b "can be time varying to account for
+    different weather or flight conditions" and "need to be properly selected according to the
+    weather and flight conditions"; the paper does not say how. :func:`envelope_bounds` turns
+    this declaration into the box of eq. 21b.
+
+    Attributes
+    ----------
+    wind_mps : steady horizontal wind speed (any direction)
+    wind_z_mps : steady vertical wind speed
+    shear_mps, shear_z_mps : largest horizontal / vertical change of the wind by shear
+    shear_rate_mps2 : largest wind acceleration of the shear (both axes)
+    turbulence_sigma_mps : Dryden intensity sigma_u = sigma_v = sigma_w (0: no turbulence)
+    turbulence_scale_m : Dryden scale length L
+    n_sigma : how many standard deviations of the turbulence the box holds
+    flight_path_max_rad : largest |alpha - theta| (flight-path angle) of the flight; sizes the
+        eq. 15 approximation error that the W_z state absorbs
+    model_margin_mps, model_rate_margin_mps2 : floor of the box for the model mismatch the wind
+        states absorb even in calm air (u_alpha, u_v, n of eq. 1 "account for ... model
+        mismatches"); keeps the box open (the barrier of eq. 44 needs a non-empty interior)
+    """
+
+    wind_mps: float = 18.0
+    wind_z_mps: float = 3.0
+    shear_mps: float = 0.0
+    shear_z_mps: float = 0.0
+    shear_rate_mps2: float = 1.5
+    turbulence_sigma_mps: float = 0.0
+    turbulence_scale_m: float = DRYDEN_SCALE_M
+    n_sigma: float = 3.0
+    flight_path_max_rad: float = 10.0 * math.pi / 180.0
+    model_margin_mps: float = 2.0
+    model_rate_margin_mps2: float = 0.5
+
+
+@dataclass(frozen=True, slots=True)
+class WindBounds:
+    """Symmetric box of eq. 21b on W_x, W_z (m/s) and u_wx, u_wz (m/s^2)."""
+
+    wind_x_max_mps: float
+    wind_z_max_mps: float
+    rate_x_max_mps2: float
+    rate_z_max_mps2: float
+
+
+def envelope_bounds(
+    env: WindEnvelope,
+    tas_mps: float,
+    dt_s: float,
+    roll_rad: float,
+    g_mps2: float = c.GRAVITY_STD_MPS2,
+) -> WindBounds:
+    """Bounds of eq. 21b for the current flight condition from a declared envelope.
+
+    Our construction (Wan2018 gives none), each term a bound on one physical source:
+
+    * ``|W_x| <= wind + shear + n sigma`` and ``|W_z| <= wind_z + shear_z + n sigma``: steady
+      wind, shear and turbulence add; a Dryden gust stays within ``n sigma`` (Gaussian);
+    * ``|u_w|`` is the wind change per sample over ``t_s`` (eq. 20c). A Dryden longitudinal gust
+      is a first-order Markov process with ``tau = L / V`` (Lu2016 eq. 21), so its change over
+      one sample has the standard deviation ``sigma sqrt(2 (1 - exp(-t_s / tau)))``; ``n`` of
+      those divided by ``t_s`` bound the turbulent part of ``u_w`` (the lateral/vertical
+      gusts are smoother, so the same value bounds ``u_wz``);
+    * the states also absorb the model's approximation errors, which the box must hold too:
+      eq. 11 drops ``W_perp^2 / (2 V_g)`` (W_x) and eq. 15 replaces V_t by V_g, an error of
+      ``(V_t - V_g) sin(alpha - theta)`` <= ``W_x,max sin(gamma_max)`` (W_z);
+    * the shear's own acceleration adds to both axes;
+    * W_x is the wind along the heading: in a turn at bank ``phi`` the heading rate
+      ``g tan(phi) / V`` turns the horizontal wind into the heading at up to
+      ``W_h g |tan phi| / V`` (the longitudinal model of eq. 6 has no heading; this term keeps
+      the box valid in the turns the campaign flies).
+
+    Parameters
+    ----------
+    env : declared envelope
+    tas_mps : airspeed for the Dryden time constant (the measured V_g of Theta is used: only
+        tau depends on it)
+    dt_s : air-data sample interval t_s
+    roll_rad : measured bank angle
+    """
+    v = max(tas_mps, 1.0)
+    gust = env.n_sigma * env.turbulence_sigma_mps
+    wh = env.wind_mps + env.shear_mps + gust
+    wx = wh + wh * wh / (2.0 * v) + env.model_margin_mps  # eq. 11 error
+    wz = (env.wind_z_mps + env.shear_z_mps + gust + wh * math.sin(env.flight_path_max_rad)
+          + env.model_margin_mps)
+    turb_rate = 0.0
+    if env.turbulence_sigma_mps > 0.0 and dt_s > 0.0:
+        tau = env.turbulence_scale_m / v
+        step_sd = env.turbulence_sigma_mps * math.sqrt(2.0 * (1.0 - math.exp(-dt_s / tau)))
+        turb_rate = env.n_sigma * step_sd / dt_s
+    turn_rate = wx * g_mps2 * abs(math.tan(max(min(roll_rad, 1.4), -1.4))) / v
+    rate = env.shear_rate_mps2 + turb_rate + env.model_rate_margin_mps2
+    return WindBounds(wx, wz, rate + turn_rate, rate)

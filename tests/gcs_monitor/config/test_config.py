@@ -53,6 +53,9 @@ def test_imu_hosm_thresholds_are_their_own_keys(tmp_path):
         ("[fdi.acc_hosm]\nthreshold_mps2 = -1\n",
          r"'fdi.acc_hosm.threshold_mps2' must be a positive"),
         ("[fdi.acc_hosm]\nn_detect = 60\n", r"must not exceed n_eval"),
+        ("[airdata]\nwind_mps = 3\n", r"unknown key 'airdata.wind_mps'"),
+        ("[airdata]\nturbulence_sigma_kts = -1\n", r"must be a non-negative number"),
+        ("[airdata]\nwind_accel_in_alpha = 1\n", r"must be true or false"),
     ],
 )
 def test_invalid_config_names_file_and_key(tmp_path, text, match):
@@ -68,3 +71,36 @@ def test_shipped_imu_hosm_config_loads():
     c = load_config(Path(__file__).parents[3] / "configs" / "imu_hosm.toml")
     assert c.estimators.imu_hosm and not c.estimators.imu_ts
     assert c.fdi.acc_hosm.threshold == load_config(None).fdi.acc_hosm.threshold
+
+
+def test_airdata_envelope_in_knots(tmp_path):
+    """[airdata]: the declared weather, knots in the file, SI after loading."""
+    c = load_config(_write(tmp_path, "[airdata]\nwind_kts = 30\nturbulence_sigma_kts = 4\n"
+                                     "shear_rate_ktsps = 2\nflight_path_max_deg = 5\n"))
+    kt = 1852 / 3600
+    assert c.airdata.wind_mps == pytest.approx(30 * kt, rel=1e-12)
+    assert c.airdata.turbulence_sigma_mps == pytest.approx(4 * kt, rel=1e-12)
+    assert c.airdata.shear_rate_mps2 == pytest.approx(2 * kt, rel=1e-12)
+    assert c.airdata.flight_path_max_rad == pytest.approx(math.radians(5.0), rel=1e-12)
+    assert c.airdata.n_sigma == 3.0  # untouched keys keep their defaults
+
+
+@pytest.mark.parametrize("name", ["weather_calm.toml", "weather_moderate_turbulence.toml"])
+def test_shipped_weather_configs_load(name):
+    from pathlib import Path
+
+    p = Path(__file__).resolve().parents[3] / "configs" / name
+    c = load_config(p)
+    assert c.estimators.airdata == "cmhe"  # only the declared weather changes
+    assert c.airdata.wind_mps > 0.0
+
+
+def test_airdata_model_switch_reaches_the_estimator(tmp_path):
+    from gcs_monitor.monitor import build_estimators
+
+    c = load_config(_write(tmp_path, "[airdata]\nwind_accel_in_alpha = false\n"))
+    assert c.airdata.wind_accel_in_alpha is False
+    _, est = build_estimators(c)
+    assert est.model.params.wind_accel_in_alpha is False  # Wan2018 eq. 13
+    _, est_default = build_estimators(load_config(None))
+    assert est_default.model.params.wind_accel_in_alpha is True

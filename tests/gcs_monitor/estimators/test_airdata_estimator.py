@@ -158,3 +158,46 @@ def test_missing_gps_gives_unavailable(fault_free: synth.SynthRun) -> None:
 def test_unknown_variant_rejected() -> None:
     with pytest.raises(ValueError, match="variant"):
         AirDataEstimator(variant="ukf")
+
+
+def test_declared_envelope_schedules_bounds_and_the_solution_respects_them(
+    cas_runaway: synth.SynthRun,
+) -> None:
+    """With a declared envelope the box of eq. 21b is recomputed at every air-data sample from
+    the measured V_g, bank angle and t_s (envelope_bounds), and every CMHE solution stays in it
+    (the barrier and the line search of Algorithm 1 keep the iterates strictly inside)."""
+    from gcs_monitor.estimators.airdata import AirDataEstimatorConfig
+    from gcs_monitor.models.airdata import WindEnvelope, envelope_bounds
+
+    env = WindEnvelope(wind_mps=5.0, wind_z_mps=1.0, shear_rate_mps2=0.0,
+                       turbulence_sigma_mps=0.5)
+    est = AirDataEstimator(AirDataEstimatorConfig(envelope=env), variant="cmhe")
+    n_checked = 0
+    t_prev = None
+    wx_max_seen = 0.0
+    for fr in cas_runaway.frames:
+        e = est.step(fr)
+        if not fr.air_new or not e.residuals:
+            if fr.air_new:
+                t_prev = fr.t_us
+            continue
+        vg = float(est._theta_prev[0])  # type: ignore[index]  # Theta_k of this sample
+        dt = (fr.t_us - t_prev) * 1e-6 if t_prev is not None else 0.05
+        t_prev = fr.t_us
+        b = envelope_bounds(env, vg, dt, float(fr.euler_rad[0]))
+        assert est.bounds.x_ub[2] == pytest.approx(b.wind_x_max_mps, rel=1e-12)
+        assert est.bounds.x_ub[3] == pytest.approx(b.wind_z_max_mps, rel=1e-12)
+        assert est.bounds.u_ub[2] == pytest.approx(b.rate_x_max_mps2, rel=1e-12)
+        assert est.bounds.u_ub[3] == pytest.approx(b.rate_z_max_mps2, rel=1e-12)
+        s = est._mhe
+        assert s is not None
+        x, u = s.x[: s.n], s.u[: max(s.n - 1, 0)]
+        assert np.all(np.abs(x[:, 2]) < est.bounds.x_ub[2])
+        assert np.all(np.abs(x[:, 3]) < est.bounds.x_ub[3])
+        assert np.all(np.abs(u[:, 2]) < est.bounds.u_ub[2])
+        assert np.all(np.abs(u[:, 3]) < est.bounds.u_ub[3])
+        wx_max_seen = max(wx_max_seen, float(np.max(np.abs(x[:, 2]))))
+        n_checked += 1
+    assert n_checked > 700
+    # the -15 kts/s runaway on all three probes pushes W_x against its (small) bound
+    assert wx_max_seen > 0.9 * b.wind_x_max_mps

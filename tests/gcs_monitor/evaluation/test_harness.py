@@ -152,3 +152,24 @@ def test_quick_campaign_writes_report(tmp_path: Path) -> None:
     assert free
     assert all(not o.false_alarm for r in free for o in r.outcomes[METHOD_MONITOR].values())
     assert res.row(METHOD_MONITOR, "aoa").far_pct == 0.0
+
+
+def test_declared_weather_is_the_scenario_forecast_rounded_up() -> None:
+    """The monitor receives the scenario's wind *specification* coarsened like a forecast:
+    speed 5 kt steps, vertical 1 kt, shear 5 kt, sigma 1 kt; shear rate pi A / T (A/2 (1 - cos))."""
+    from gcs_monitor.core.units import KT2MPS
+    from gcs_monitor.evaluation.harness import declared_weather
+    from sim_vehicle.environment.wind import SHEAR_DURATION_S
+    from sim_vehicle.scenario import WindSpec
+
+    sc = generate_set("triplex", 1, 0)[0]
+    w = WindSpec(kind="shear+turbulence", mean_ned_mps=(3.0, 4.0, -0.6),
+                 turbulence_sigma_mps=2.51, shear_amplitude_mps=10.0)
+    a = declared_weather(dataclasses.replace(sc, wind=w))
+    assert a.wind_mps == pytest.approx(10.0 * KT2MPS)  # 5 m/s = 9.7 kt -> 10 kt
+    assert a.wind_z_mps == pytest.approx(2.0 * KT2MPS)  # 0.6 m/s = 1.2 kt -> 2 kt
+    assert a.turbulence_sigma_mps == pytest.approx(5.0 * KT2MPS)  # 4.88 kt -> 5 kt
+    assert a.shear_mps == pytest.approx(20.0 * KT2MPS)  # 19.4 kt -> 20 kt
+    assert a.shear_rate_mps2 == pytest.approx(math.pi * 20.0 * KT2MPS / SHEAR_DURATION_S)
+    calm = declared_weather(dataclasses.replace(sc, wind=dataclasses.replace(w, kind="calm")))
+    assert calm.wind_mps == calm.shear_mps == calm.turbulence_sigma_mps == 0.0

@@ -81,7 +81,7 @@ def test_table3_aggregates_max_and_mean() -> None:
 
 def test_experiments_registered() -> None:
     assert {"wan2018_fig45", "wan2018_fig3", "wan2018_campaign",
-            "wan2018_onspeed"} <= set(wan2018.experiments())
+            "wan2018_onspeed", "wan2018_calibration"} <= set(wan2018.experiments())
 
 
 @pytest.mark.slow
@@ -120,3 +120,11 @@ def test_quick_campaign_metrics(tmp_path: Path) -> None:
         if method == "monitor":
             assert float(far) == 0.0  # thresholds from fault-free calibration seeds
     assert (tmp_path / "wan2018_campaign_delays.png").stat().st_size > 0
+
+
+def test_calibration_runs_open_loop() -> None:
+    """Calibration runs must never isolate (a lost set would leave the MHE on the model alone and
+    inflate the 'fault-free' J): open_loop thresholds sit far above any residual."""
+    cfg = wan2018.open_loop(wan2018.variant_config("cmhe"))
+    assert cfg.fdi.aoa.threshold >= 1.0e3 and cfg.fdi.cas.threshold >= 1.0e4
+    assert cfg.estimators.airdata == "cmhe" and not cfg.estimators.imu_ts

@@ -20,7 +20,9 @@ from gcs_monitor.models.airdata import (
     airdata_h_jac_x,
     airdata_initial_state,
     cas_from_tas_with_derivative,
+    WindEnvelope,
     compiled_kernels,
+    envelope_bounds,
 )
 
 P = AirDataModelParams()
@@ -75,8 +77,13 @@ def test_hand_values() -> None:
     assert y[1] == pytest.approx(-2.0)  # W_z = 2 m/s down -> V_z = -2 m/s (up positive)
     assert y[3] == pytest.approx(cas_from_tas(110.0, 0.0), rel=1e-12)  # sea level: CAS = TAS
     assert y[3] == pytest.approx(110.0, rel=1e-12)
-    xn = airdata_f(x, np.array([0.1, 0.2, 0.3, 0.4]), theta_p, 0.05, P)
+    eq13 = AirDataModelParams(wind_accel_in_alpha=False)
+    xn = airdata_f(x, np.array([0.1, 0.2, 0.3, 0.4]), theta_p, 0.05, eq13)
     np.testing.assert_allclose(xn, x + 0.05 * (xd + [0.1, 0.2, 0.3, 0.4]), rtol=1e-14)
+    # eq. 8 term, alpha = theta = 0: + t_s (0.3 sin 0 - 0.4 cos 0) / V_g = -0.05 * 0.4 / 100
+    xn8 = airdata_f(x, np.array([0.1, 0.2, 0.3, 0.4]), theta_p, 0.05, P)
+    assert xn8[0] - xn[0] == pytest.approx(-0.05 * 0.4 / 100.0, rel=1e-12)
+    np.testing.assert_array_equal(xn8[1:], xn[1:])
 
 
 @pytest.mark.parametrize("alt_m", [0.0, 1524.0, 9000.0])
@@ -107,16 +114,16 @@ def test_jacobians_against_central_differences(seed: int) -> None:
         c_fd[:, j] = (airdata_h(x + e, th) - airdata_h(x - e, th)) / (2 * eps[j])
     # Central differences: O(eps^2) truncation; the CAS power chain loses ~1e-14 relative,
     # divided by eps -> ~1e-7 relative.
-    np.testing.assert_allclose(airdata_f_jac_x(x, th, dt, P), a_fd, rtol=1e-7, atol=1e-8)
+    np.testing.assert_allclose(airdata_f_jac_x(x, th, dt, P, u), a_fd, rtol=1e-7, atol=1e-8)
     np.testing.assert_allclose(airdata_h_jac_x(x, th), c_fd, rtol=1e-6, atol=1e-8)
     b_fd = np.zeros((4, 4))
     for j in range(4):
         e = np.zeros(4)
         e[j] = 1e-3
         b_fd[:, j] = (airdata_f(x, u + e, th, dt, P) - airdata_f(x, u - e, th, dt, P)) / 2e-3
-    np.testing.assert_allclose(airdata_f_jac_u(dt), b_fd, atol=1e-12)
+    np.testing.assert_allclose(airdata_f_jac_u(dt, x, th, P), b_fd, atol=1e-12)
     # Remark 1: a_12 = c_22 = 0 (V_g enters through the measured Theta)
-    assert airdata_f_jac_x(x, th, dt, P)[0, 1] == 0.0
+    assert airdata_f_jac_x(x, th, dt, P, u)[0, 1] == 0.0
     assert airdata_h_jac_x(x, th)[1, 1] == 0.0
 
 
@@ -165,3 +172,85 @@ def test_compiled_horizon_linearisation_matches_methods() -> None:
             np.testing.assert_allclose(f[i], f_ref, rtol=1e-12, atol=1e-11)
     # rows from n on are left untouched
     assert not np.any(cm[n:]) and not np.any(ry[n:]) and not np.any(a[n - 1 :])
+
+
+# ------------------------------------------------------------------------------------------
+# Wind bounds from a declared envelope (eq. 21b): hand-derived values of envelope_bounds
+# ------------------------------------------------------------------------------------------
+
+
+def test_envelope_calm_gives_the_model_margins() -> None:
+    env = WindEnvelope(wind_mps=0.0, wind_z_mps=0.0, shear_rate_mps2=0.0)
+    b = envelope_bounds(env, 150.0, 0.05, 0.0)
+    assert b.wind_x_max_mps == pytest.approx(env.model_margin_mps, abs=1e-12)
+    assert b.wind_z_max_mps == pytest.approx(env.model_margin_mps, abs=1e-12)
+    assert b.rate_x_max_mps2 == pytest.approx(env.model_rate_margin_mps2, abs=1e-12)
+    assert b.rate_z_max_mps2 == pytest.approx(env.model_rate_margin_mps2, abs=1e-12)
+
+
+def test_envelope_turbulence_by_hand() -> None:
+    """sigma 2 m/s, L 500 m, V 100 m/s: tau = 5 s; over t_s = 0.05 s a first-order Markov gust
+    changes with sd 2 sqrt(2 (1 - e^-0.01)) = 0.282137 m/s; 3 of those / t_s = 16.928 m/s^2."""
+    env = WindEnvelope(wind_mps=0.0, wind_z_mps=0.0, shear_rate_mps2=0.0,
+                       turbulence_sigma_mps=2.0, turbulence_scale_m=500.0)
+    b = envelope_bounds(env, 100.0, 0.05, 0.0)
+    step_sd = 2.0 * math.sqrt(2.0 * (1.0 - math.exp(-0.01)))
+    assert step_sd == pytest.approx(0.282137, abs=1e-6)
+    rate = 3.0 * step_sd / 0.05 + 0.5
+    assert b.rate_x_max_mps2 == pytest.approx(rate, rel=1e-12)
+    assert b.rate_z_max_mps2 == pytest.approx(rate, rel=1e-12)
+    # |W_x| <= 3 sigma + (3 sigma)^2 / (2 V) (eq. 11) + 2;  |W_z| <= 3 sigma (1 + sin 10 deg) + 2
+    assert b.wind_x_max_mps == pytest.approx(6.0 + 36.0 / 200.0 + 2.0, rel=1e-12)
+    assert b.wind_z_max_mps == pytest.approx(6.0 * (1.0 + math.sin(math.radians(10.0))) + 2.0,
+                                             rel=1e-12)
+
+
+def test_envelope_turn_adds_heading_rate_times_wind() -> None:
+    """30 deg bank at 100 m/s: heading rate g tan 30 / 100; W_x,max = 10 + 100/200 = 10.5."""
+    env = WindEnvelope(wind_mps=10.0, wind_z_mps=0.0, shear_rate_mps2=0.0,
+                       model_margin_mps=0.0, model_rate_margin_mps2=0.0)
+    level = envelope_bounds(env, 100.0, 0.05, 0.0)
+    turn = envelope_bounds(env, 100.0, 0.05, math.radians(30.0))
+    assert level.rate_x_max_mps2 == 0.0
+    expected = 10.5 * GRAVITY_STD_MPS2 * math.tan(math.radians(30.0)) / 100.0
+    assert turn.rate_x_max_mps2 == pytest.approx(expected, rel=1e-12)
+    assert turn.rate_z_max_mps2 == 0.0  # the heading rate does not move the vertical wind
+    assert turn.wind_x_max_mps == level.wind_x_max_mps == pytest.approx(10.5, rel=1e-12)
+
+
+def test_envelope_bounds_grow_with_the_weather() -> None:
+    """Invariant: more wind, shear or turbulence never shrinks the box."""
+    rng = np.random.default_rng(5)
+    for _ in range(50):
+        a = WindEnvelope(wind_mps=rng.uniform(0, 30), shear_mps=rng.uniform(0, 10),
+                         turbulence_sigma_mps=rng.uniform(0, 3), shear_rate_mps2=rng.uniform(0, 2))
+        bigger = WindEnvelope(wind_mps=a.wind_mps + 1, shear_mps=a.shear_mps + 1,
+                              turbulence_sigma_mps=a.turbulence_sigma_mps + 0.5,
+                              shear_rate_mps2=a.shear_rate_mps2 + 0.1)
+        v, roll = rng.uniform(80, 190), rng.uniform(-0.5, 0.5)
+        b0, b1 = envelope_bounds(a, v, 0.05, roll), envelope_bounds(bigger, v, 0.05, roll)
+        assert b1.wind_x_max_mps > b0.wind_x_max_mps
+        assert b1.wind_z_max_mps > b0.wind_z_max_mps
+        assert b1.rate_x_max_mps2 > b0.rate_x_max_mps2
+        assert b1.rate_z_max_mps2 > b0.rate_z_max_mps2
+
+
+def test_eq8_wind_acceleration_moves_alpha_with_a_vertical_gust() -> None:
+    """Eq. 8 term: a vertical wind input u_wz over t_s changes alpha by -t_s u_wz cos(d) / V_g
+    and W_z by t_s u_wz, so V_z (eq. 15) changes only by -t_s u_wz sin(d)^2 (d = alpha - theta):
+    a gust changes the angle of attack, not the ground path. Without the term (eq. 13) alpha
+    does not move and V_z takes the whole -t_s u_wz."""
+    th = np.array([150.0, 0.05, 0.0, 0.5, -9.7, 3000.0])
+    x = np.array([0.06, 150.0, 5.0, 1.0])
+    u = np.array([0.0, 0.0, 0.0, 12.0])  # 12 m/s^2 vertical gust rate
+    dt = 0.05
+    d = x[0] - th[1]
+    for p, dalpha_expected in ((P, -dt * 12.0 * math.cos(d) / 150.0),
+                               (AirDataModelParams(wind_accel_in_alpha=False), 0.0)):
+        x1 = airdata_f(x, u, th, dt, p)
+        x0 = airdata_f(x, np.zeros(4), th, dt, p)
+        assert x1[0] - x0[0] == pytest.approx(dalpha_expected, rel=1e-12, abs=1e-15)
+        assert x1[3] - x0[3] == pytest.approx(dt * 12.0, rel=1e-12)
+    x1, x0 = airdata_f(x, u, th, dt, P), airdata_f(x, np.zeros(4), th, dt, P)
+    dvz = airdata_h(x1, th)[1] - airdata_h(x0, th)[1]
+    assert abs(dvz) < dt * 12.0 * math.sin(d) ** 2 + 1e-6  # second order in d (+ O(dalpha^2))
