@@ -121,6 +121,7 @@ def set_params(name: str, cfg: SetConfig, dt_s: float) -> SetMonitorParams:
         confirmation=ConfirmationParams(detect_n=cfg.n_detect, eval_n=cfg.n_eval,
                                         clear_ratio=cfg.clear_ratio, clear_n=cfg.n_clear,
                                         latch=cfg.latch),
+        stuck_n=round(cfg.stuck_window_s / dt_s) if cfg.stuck_window_s > 0.0 else 0,
     )
 
 

@@ -37,6 +37,9 @@ class SetConfig:
     clear_ratio: float = 0.5
     n_clear: int = 200
     latch: bool = True
+    # frozen-signal (jam) check of a redundant set, window in s; 0 turns it off
+    # (gcs_monitor.fdi.monitor.FrozenSignalCheck; used by the AoA and CAS sets)
+    stuck_window_s: float = 2.0
 
 
 HOSM_ACC_MPS2 = 0.64  # imu_hosm thresholds (FdiConfig.acc_hosm, gyro_hosm), see there
@@ -237,7 +240,12 @@ def _set_config(name: str, data: dict[str, Any], src: str) -> SetConfig:
                     clear_ratio=default.clear_ratio if partial.clear_ratio is None
                     else partial.clear_ratio,
                     n_clear=partial.n_clear or default.n_clear,
-                    latch=default.latch if partial.latch is None else partial.latch)
+                    latch=default.latch if partial.latch is None else partial.latch,
+                    stuck_window_s=default.stuck_window_s if partial.stuck_window_s is None
+                    else partial.stuck_window_s)
+    if 0.0 < cfg.stuck_window_s < 0.5:
+        raise ConfigError(f"{src}: 'fdi.{name}.stuck_window_s' must be 0 (off) or at least "
+                          f"0.5 s, got {cfg.stuck_window_s}")
     if cfg.n_detect > cfg.n_eval:
         raise ConfigError(f"{src}: 'fdi.{name}.n_detect' ({cfg.n_detect}) must not exceed "
                           f"n_eval ({cfg.n_eval})")
@@ -251,6 +259,7 @@ class _SetPartial:
     clear_ratio: float | None = None
     n_clear: int = 0
     latch: bool | None = None
+    stuck_window_s: float | None = None
 
 
 def load_config(path: Path | None = None) -> MonitorConfig:

@@ -54,6 +54,10 @@ class SetMonitorParams:
     dt_s : nominal sample interval (classification time axis), s
     history_n : residual samples kept per instance for classification
     reclassify_every_n : samples between two reclassifications of an active alarm
+    stuck_n : window of the frozen-signal check, samples (0 disables it; see
+        :class:`FrozenSignalCheck`)
+    stuck_ratio : an instance is frozen when the mean square of its sample-to-sample changes
+        over ``stuck_n`` samples is below ``stuck_ratio`` times the most active healthy peer's
     """
 
     threshold: float
@@ -65,12 +69,113 @@ class SetMonitorParams:
     alarm: AlarmParams = field(default_factory=AlarmParams)
     history_n: int = 200
     reclassify_every_n: int = 50
+    stuck_n: int = 0
+    stuck_ratio: float = 0.01
 
     def __post_init__(self) -> None:
         if not self.threshold > 0.0:
             raise ValueError(f"threshold must be > 0, got {self.threshold}")
         if self.history_n < 4:
             raise ValueError(f"history_n must be >= 4, got {self.history_n}")
+        if self.stuck_n < 0 or (self.stuck_n and self.stuck_n < 4):
+            raise ValueError(f"stuck_n must be 0 (off) or >= 4, got {self.stuck_n}")
+        if not 0.0 < self.stuck_ratio < 1.0:
+            raise ValueError(f"stuck_ratio must be in (0, 1), got {self.stuck_ratio}")
+
+
+class FrozenSignalCheck:
+    """Frozen-signal (jammed sensor) check of a redundant set; not in Wan2018.
+
+    A jammed vane or a blocked probe outputs ``y = x(t0)``: it stops following the flow, so its
+    sample-to-sample changes collapse to the electrical noise, while a healthy peer keeps
+    changing with the flight condition, turbulence and its own noise. Wan2018's residual (eq. 17)
+    sees a jam only once the true value has moved by J_th (its worst detection delay, 19.16 s in
+    Table IV, is a jam), so the set monitor adds this check.
+
+    ``D_i = mean over the last n samples of (y_i[k] - y_i[k-1])^2``. Instance i is frozen when
+    both hold:
+
+    * its activity collapsed against its own past: ``D_i < ratio * median(D_i of its last
+      ``past_n`` complete, non-overlapping windows)`` (at least two of them), and
+    * against its peers: ``D_i < ratio * max_j D_j`` over the other instances with a full
+      window, and that peer is active at all (``max_j D_j > floor``).
+
+    The first condition keeps a healthy instance from looking frozen next to a peer with a
+    noise or oscillation fault (its own activity has not changed); the second keeps a set that
+    calms down as a whole (turbulence ends, or the aircraft is parked) from being flagged. With
+    ``ratio = 0.01`` the change RMS must fall to a tenth of both: white noise alone keeps a
+    healthy sensor near 1. Two jammed instances of a triplex are both found while one moves;
+    three are left to the residual test.
+    """
+
+    __slots__ = ("n", "ratio", "floor", "past_n", "_prev", "_sq", "_sum", "_idx", "_count",
+                 "_since", "_past")
+
+    def __init__(self, n_inst: int, n: int, ratio: float, floor: float,
+                 past_n: int = 8) -> None:
+        self.n, self.ratio, self.floor, self.past_n = n, ratio, floor, past_n
+        self._prev = [math.nan] * n_inst
+        self._sq = [[0.0] * n for _ in range(n_inst)]
+        self._sum = [0.0] * n_inst
+        self._idx = [0] * n_inst
+        self._count = [0] * n_inst
+        self._since = [0] * n_inst
+        self._past: list[list[float]] = [[] for _ in range(n_inst)]
+
+    def update(self, m: Sequence[float], usable: Sequence[bool]) -> None:
+        """Add one sample per instance (an unusable sample restarts that instance's windows)."""
+        n = self.n
+        for i, (x, u) in enumerate(zip(m, usable, strict=True)):
+            prev = self._prev[i]
+            if not u:
+                self._prev[i] = math.nan
+                self._count[i] = self._since[i] = 0
+                self._sum[i] = 0.0
+                self._past[i] = []
+                continue
+            self._prev[i] = x
+            if prev != prev:
+                continue
+            d2 = (x - prev) * (x - prev)
+            k = self._idx[i]
+            buf = self._sq[i]
+            if self._count[i] == n:
+                self._sum[i] -= buf[k]
+            else:
+                self._count[i] += 1
+            buf[k] = d2
+            self._sum[i] += d2
+            self._idx[i] = 0 if k + 1 == n else k + 1
+            self._since[i] += 1
+            if self._since[i] == n:  # one more complete, non-overlapping window
+                self._since[i] = 0
+                past = self._past[i]
+                past.append(max(self._sum[i], 0.0) / n)
+                if len(past) > self.past_n:
+                    del past[0]
+
+    def activity(self) -> list[float]:
+        """``D_i`` per instance, NaN until its window is full."""
+        n = self.n
+        return [max(s, 0.0) / n if c == n else math.nan  # running sums may round below 0
+                for s, c in zip(self._sum, self._count, strict=True)]
+
+    def frozen(self) -> list[bool]:
+        """Per instance: frozen against its own past and its most active peer."""
+        d = self.activity()
+        out = [False] * len(d)
+        for i, di in enumerate(d):
+            past = self._past[i]
+            # the newest stored window may already be the frozen one; judge against the older
+            older = past[:-1] if self._since[i] == 0 else past
+            if di != di or len(older) < 2:
+                continue
+            srt = sorted(older)
+            mid = len(srt) // 2
+            own = srt[mid] if len(srt) % 2 else 0.5 * (srt[mid - 1] + srt[mid])
+            peer = max((x for j, x in enumerate(d) if j != i and x == x), default=0.0)
+            out[i] = peer > self.floor and di < self.ratio * own and di < self.ratio * peer
+        return out
 
 
 class _History:
@@ -165,6 +270,11 @@ class RedundantSetMonitor:
         self._range = range(n)
         self._n_active = 0
         self._labels: dict[tuple[int, bool, bool], str] = {}
+        # floor: a peer must change by more than a hundredth of the noise sigma per sample
+        self._frozen = (FrozenSignalCheck(n, params.stuck_n, params.stuck_ratio,
+                                          (0.01 * params.noise_sigma) ** 2)
+                        if params.stuck_n and n > 1 else None)
+        self._stuck = [False] * n
 
     @property
     def faulty(self) -> tuple[bool, ...]:
@@ -206,15 +316,27 @@ class RedundantSetMonitor:
         conf = self._conf
         hist = self._hist
         changed = False
+        stuck = self._stuck
+        fr = self._frozen
+        if fr is not None:  # jams (FrozenSignalCheck)
+            fr.update(m, usable)
+            latch = self.p.confirmation.latch
+            for i, f in enumerate(fr.frozen()):
+                if f:
+                    stuck[i] = True
+                elif not latch:
+                    stuck[i] = False
         for i in rng:
             ri = r[i]
             if ri == ri:
                 j = rms[i].update(ri)
                 J[i] = j
                 hist[i].push(ri, m[i])
-                if conf[i].update(j, th) != faulty[i]:
+                if (conf[i].update(j, th) or stuck[i]) != faulty[i]:
                     faulty[i] = not faulty[i]
                     changed = True
+            elif stuck[i] and not faulty[i]:
+                faulty[i] = changed = True
 
         eligible = [u and not f for u, f in zip(usable, faulty, strict=True)]
         weights = adaptive_weights(J, eligible, th, self._floor)
@@ -254,6 +376,10 @@ class RedundantSetMonitor:
                 if not sm.active or self._since_class[i] >= self.p.reclassify_every_n:
                     self._since_class[i] = 0
                     ft, mag, msg = _describe(self._hist[i], self._cp, self.p.dt_s)
+                    if self._stuck[i] and J[i] <= th:  # raised by the frozen-signal check
+                        ft, msg = FaultType.STUCK, (
+                            f"stuck: frozen for {self.p.stuck_n} samples while a peer varies,"
+                            f" residual {mag:.4g}")
                     events += sm.step(t_us, True, fault_type=ft, magnitude=mag, rms=J[i],
                                       threshold=th, message=msg)
             elif sm.active:
