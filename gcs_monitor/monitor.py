@@ -33,14 +33,10 @@ def wind_envelope(cfg: MonitorConfig) -> Any:
     """The declared weather of ``cfg.airdata`` as the model's WindEnvelope (Wan2018 eq. 21b)."""
     from gcs_monitor.models.airdata import WindEnvelope
 
-    a = cfg.airdata
-    return WindEnvelope(wind_mps=a.wind_mps, wind_z_mps=a.wind_z_mps, shear_mps=a.shear_mps,
-                        shear_z_mps=a.shear_z_mps, shear_rate_mps2=a.shear_rate_mps2,
-                        turbulence_sigma_mps=a.turbulence_sigma_mps,
-                        turbulence_scale_m=a.turbulence_scale_m, n_sigma=a.n_sigma,
-                        flight_path_max_rad=a.flight_path_max_rad,
-                        model_margin_mps=a.model_margin_mps,
-                        model_rate_margin_mps2=a.model_rate_margin_mps2)
+    import dataclasses
+
+    a = cfg.airdata  # AirDataConfig carries every WindEnvelope field under the same name
+    return WindEnvelope(**{f.name: getattr(a, f.name) for f in dataclasses.fields(WindEnvelope)})
 
 
 def build_estimators(cfg: MonitorConfig) -> tuple[list[Estimator], Any | None]:

@@ -14,6 +14,9 @@ from pathlib import Path
 from typing import Any
 
 from gcs_monitor.core.units import DEG2RAD, KT2MPS
+from gcs_monitor.models.airdata import WindEnvelope
+
+_ENV = WindEnvelope()
 
 
 class ConfigError(ValueError):
@@ -95,17 +98,18 @@ class AirDataConfig:
     condition (configs/weather_*.toml).
     """
 
-    wind_mps: float = 18.0
-    wind_z_mps: float = 3.0
-    shear_mps: float = 0.0
-    shear_z_mps: float = 0.0
-    shear_rate_mps2: float = 1.5
-    turbulence_sigma_mps: float = 0.0
-    turbulence_scale_m: float = 530.0  # Dryden L (Lu2016 sec. 2.2.1, MIL-F-8785C)
-    n_sigma: float = 3.0
-    flight_path_max_rad: float = 10.0 * DEG2RAD
-    model_margin_mps: float = 2.0
-    model_rate_margin_mps2: float = 0.5
+    # the envelope's defaults live in one place: gcs_monitor.models.airdata.WindEnvelope
+    wind_mps: float = _ENV.wind_mps
+    wind_z_mps: float = _ENV.wind_z_mps
+    shear_mps: float = _ENV.shear_mps
+    shear_z_mps: float = _ENV.shear_z_mps
+    shear_rate_mps2: float = _ENV.shear_rate_mps2
+    turbulence_sigma_mps: float = _ENV.turbulence_sigma_mps
+    turbulence_scale_m: float = _ENV.turbulence_scale_m  # Dryden L (Lu2016 sec. 2.2.1)
+    n_sigma: float = _ENV.n_sigma
+    flight_path_max_rad: float = _ENV.flight_path_max_rad
+    model_margin_mps: float = _ENV.model_margin_mps
+    model_rate_margin_mps2: float = _ENV.model_rate_margin_mps2
     wind_accel_in_alpha: bool = True  # eq. 8 term in the model (False: Wan2018 eq. 13)
 
 
