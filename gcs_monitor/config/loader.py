@@ -42,7 +42,11 @@ class SetConfig:
     latch: bool = True
     # frozen-signal (jam) check of a redundant set, window in s; 0 turns it off
     # (gcs_monitor.fdi.monitor.FrozenSignalCheck; used by the AoA and CAS sets)
-    stuck_window_s: float = 2.0
+    stuck_window_s: float = 0.5
+    # no-data check: an instance without a valid value for this long while a peer delivers is
+    # isolated (fault type no_data); 0 turns it off (AoA and CAS sets). It counts after the
+    # telemetry's stale_after_s has made the instance invalid.
+    no_data_window_s: float = 0.5
 
 
 HOSM_ACC_MPS2 = 0.64  # imu_hosm thresholds (FdiConfig.acc_hosm, gyro_hosm), see there
@@ -246,7 +250,12 @@ def _set_config(name: str, data: dict[str, Any], src: str) -> SetConfig:
                     n_clear=partial.n_clear or default.n_clear,
                     latch=default.latch if partial.latch is None else partial.latch,
                     stuck_window_s=default.stuck_window_s if partial.stuck_window_s is None
-                    else partial.stuck_window_s)
+                    else partial.stuck_window_s,
+                    no_data_window_s=default.no_data_window_s
+                    if partial.no_data_window_s is None else partial.no_data_window_s)
+    if cfg.no_data_window_s < 0.0:
+        raise ConfigError(f"{src}: 'fdi.{name}.no_data_window_s' must be 0 (off) or positive, "
+                          f"got {cfg.no_data_window_s}")
     if 0.0 < cfg.stuck_window_s < 0.5:
         raise ConfigError(f"{src}: 'fdi.{name}.stuck_window_s' must be 0 (off) or at least "
                           f"0.5 s, got {cfg.stuck_window_s}")
@@ -264,6 +273,7 @@ class _SetPartial:
     n_clear: int = 0
     latch: bool | None = None
     stuck_window_s: float | None = None
+    no_data_window_s: float | None = None
 
 
 def load_config(path: Path | None = None) -> MonitorConfig:

@@ -31,6 +31,7 @@ class FaultType(str, Enum):
     RUNAWAY = "runaway"
     NOISE = "noise"
     LINK = "link"
+    NO_DATA = "no_data"  # an instance of a redundant set stopped delivering valid values
 
 
 @dataclass(frozen=True, slots=True)

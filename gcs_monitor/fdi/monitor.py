@@ -58,6 +58,10 @@ class SetMonitorParams:
         :class:`FrozenSignalCheck`)
     stuck_ratio : an instance is frozen when the mean square of its sample-to-sample changes
         over ``stuck_n`` samples is below ``stuck_ratio`` times the most active healthy peer's
+    no_data_n : samples an instance that has delivered before may go without a valid value
+        while a peer delivers, before it is isolated with fault type ``no_data`` (0 disables
+        it). A silent or out-of-range sensor is failed; Wan2018 (eq. 17) never sees it,
+        because an instance without a value has no residual.
     """
 
     threshold: float
@@ -71,6 +75,7 @@ class SetMonitorParams:
     reclassify_every_n: int = 50
     stuck_n: int = 0
     stuck_ratio: float = 0.01
+    no_data_n: int = 0
 
     def __post_init__(self) -> None:
         if not self.threshold > 0.0:
@@ -79,6 +84,8 @@ class SetMonitorParams:
             raise ValueError(f"history_n must be >= 4, got {self.history_n}")
         if self.stuck_n < 0 or (self.stuck_n and self.stuck_n < 4):
             raise ValueError(f"stuck_n must be 0 (off) or >= 4, got {self.stuck_n}")
+        if self.no_data_n < 0:
+            raise ValueError(f"no_data_n must be >= 0 (0 = off), got {self.no_data_n}")
         if not 0.0 < self.stuck_ratio < 1.0:
             raise ValueError(f"stuck_ratio must be in (0, 1), got {self.stuck_ratio}")
 
@@ -275,6 +282,10 @@ class RedundantSetMonitor:
                                           (0.01 * params.noise_sigma) ** 2)
                         if params.stuck_n and n > 1 else None)
         self._stuck = [False] * n
+        self._seen = [False] * n  # delivered a valid value at least once
+        self._no_data_count = [0] * n
+        self._no_data = [False] * n
+        self._usable = [False] * n
 
     @property
     def faulty(self) -> tuple[bool, ...]:
@@ -326,17 +337,21 @@ class RedundantSetMonitor:
                     stuck[i] = True
                 elif not latch:
                     stuck[i] = False
+        lost = self._no_data
+        if self.p.no_data_n:
+            self._lost_update(usable)
         for i in rng:
             ri = r[i]
             if ri == ri:
                 j = rms[i].update(ri)
                 J[i] = j
                 hist[i].push(ri, m[i])
-                if (conf[i].update(j, th) or stuck[i]) != faulty[i]:
+                if (conf[i].update(j, th) or stuck[i] or lost[i]) != faulty[i]:
                     faulty[i] = not faulty[i]
                     changed = True
-            elif stuck[i] and not faulty[i]:
+            elif (stuck[i] or lost[i]) and not faulty[i]:
                 faulty[i] = changed = True
+        self._usable = usable
 
         eligible = [u and not f for u, f in zip(usable, faulty, strict=True)]
         weights = adaptive_weights(J, eligible, th, self._floor)
@@ -365,6 +380,23 @@ class RedundantSetMonitor:
                            faulty=tuple(faulty), configuration=label)
         return status, events
 
+    def _lost_update(self, usable: list[bool]) -> None:
+        """No-data check: count the samples each seen instance goes without a valid value while
+        some peer delivers (a whole set going quiet -- a link gap -- counts for nobody)."""
+        any_usable = any(usable)
+        latch = self.p.confirmation.latch
+        cnt, lost, seen = self._no_data_count, self._no_data, self._seen
+        for i, u in enumerate(usable):
+            if u:
+                seen[i] = True
+                cnt[i] = 0
+                if not latch:
+                    lost[i] = False
+            elif seen[i] and any_usable:
+                cnt[i] += 1
+                if cnt[i] >= self.p.no_data_n:
+                    lost[i] = True
+
     def _alarm_step(self, t_us: int, faulty: list[bool], J: list[float], th: float,
                     has_ref: bool, all_faulty: bool) -> list[AlarmEvent]:
         """Alarm transitions; runs only while some instance is faulty or alarmed."""
@@ -376,7 +408,11 @@ class RedundantSetMonitor:
                 if not sm.active or self._since_class[i] >= self.p.reclassify_every_n:
                     self._since_class[i] = 0
                     ft, mag, msg = _describe(self._hist[i], self._cp, self.p.dt_s)
-                    if self._stuck[i] and J[i] <= th:  # raised by the frozen-signal check
+                    if self._no_data[i] and not self._usable[i]:
+                        ft, mag, msg = FaultType.NO_DATA, math.nan, (
+                            f"no valid value for {self._no_data_count[i]} samples while a peer "
+                            "delivers")
+                    elif self._stuck[i] and J[i] <= th:  # raised by the frozen-signal check
                         ft, msg = FaultType.STUCK, (
                             f"stuck: frozen for {self.p.stuck_n} samples while a peer varies,"
                             f" residual {mag:.4g}")

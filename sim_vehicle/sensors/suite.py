@@ -197,6 +197,10 @@ class SensorSuite:
                 for i, ch in g.faulted:
                     healthy = float(y[i])
                     yi = self.injector.apply(ch, t_s, float(x[i]), healthy)
+                    if yi < 0.0 and ch[:3] == "cas":
+                        # CAS comes from the pitot-static pressure difference: a biased or
+                        # drifting probe reads 0, never a negative airspeed
+                        yi = 0.0
                     y[i] = yi
                     if self.record_faults:
                         ts, fv = self.fault_log[ch]

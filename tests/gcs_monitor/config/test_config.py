@@ -54,6 +54,7 @@ def test_imu_hosm_thresholds_are_their_own_keys(tmp_path):
          r"'fdi.acc_hosm.threshold_mps2' must be a positive"),
         ("[fdi.acc_hosm]\nn_detect = 60\n", r"must not exceed n_eval"),
         ("[fdi.aoa]\nstuck_window_s = 0.1\n", r"'fdi.aoa.stuck_window_s' must be 0 \(off\)"),
+        ("[fdi.cas]\nno_data_window_s = -1\n", r"'fdi.cas.no_data_window_s' must be a non-negative number"),
         ("[airdata]\nwind_mps = 3\n", r"unknown key 'airdata.wind_mps'"),
         ("[airdata]\nturbulence_sigma_kts = -1\n", r"must be a non-negative number"),
         ("[airdata]\nwind_accel_in_alpha = 1\n", r"must be true or false"),
@@ -113,4 +114,14 @@ def test_stuck_window_reaches_the_set_monitor(tmp_path):
     c = load_config(_write(tmp_path, "[fdi.cas]\nstuck_window_s = 0\n[fdi.aoa]\nstuck_window_s = 3\n"))
     assert set_params("cas", c.fdi.cas, AIR_DT_S).stuck_n == 0  # off: the Wan2018 scheme
     assert set_params("aoa", c.fdi.aoa, AIR_DT_S).stuck_n == 60  # 3 s at 20 Hz
-    assert set_params("aoa", load_config(None).fdi.aoa, AIR_DT_S).stuck_n == 40  # default 2 s
+    assert set_params("aoa", load_config(None).fdi.aoa, AIR_DT_S).stuck_n == 10  # default 0.5 s
+
+
+def test_no_data_window_reaches_the_set_monitor(tmp_path):
+    from gcs_monitor.pipeline import AIR_DT_S, set_params
+
+    c = load_config(_write(tmp_path, "[fdi.cas]\nno_data_window_s = 0\n"
+                                     "[fdi.aoa]\nno_data_window_s = 1.5\n"))
+    assert set_params("cas", c.fdi.cas, AIR_DT_S).no_data_n == 0  # off
+    assert set_params("aoa", c.fdi.aoa, AIR_DT_S).no_data_n == 30  # 1.5 s at 20 Hz
+    assert set_params("cas", load_config(None).fdi.cas, AIR_DT_S).no_data_n == 10  # 0.5 s
