@@ -424,7 +424,7 @@ def run_campaign_wan2018(n_runs: int, n_cal: int, jobs: int, duration_s: tuple[f
         c = sc.description.split("category ")[1].split(",")[0]
         cats[c] = cats.get(c, 0) + 1
     return {"tables": tables, "table3": t3, "thresholds": th, "jmax_cal": jmax, "records": recs,
-            "categories": cats, "sim_s": sum(sc.duration_s for sc in scs),
+            "categories": cats, "sim_s": sum(sc.duration_s for sc in scs), "scenarios": scs,
             "wall_s": time.perf_counter() - t0, "variant": variant, "cfg": cfg}
 
 
@@ -506,6 +506,24 @@ def _campaign_files(res: dict[str, Any], out: Path) -> None:
     _csv(out / "wan2018_campaign_runs.csv",
          ["run", "name", "duration_s", "manoeuvre", "wind", "faults", "method", "group",
           "false_alarm", "missed", "false_isolation", "delay_s"], rows)
+    frows = []
+    for r, sc in zip(recs, res.get("scenarios", [None] * len(recs)), strict=True):
+        spec = {f.channel: f for f in sc.faults} if sc is not None else {}
+        by = {(f.method, f.channel): f for f in r.fault_results}
+        for ft in r.faults:
+            ch = str(ft.channel)
+            fs = spec.get(ch)
+            params = ";".join(f"{k}={v:.6g}" if isinstance(v, float) else f"{k}={v}"
+                              for k, v in (fs.params if fs is not None else ()))
+            row = [r.index, r.name, r.manoeuvre, r.wind, ch, ft.kind, ft.t_start_us * 1e-6,
+                   params]
+            for m in (METHOD_MONITOR, METHOD_MEDIAN):
+                fr = by.get((m, ch))
+                row += [int(fr.detected), fr.delay_s] if fr is not None else ["", ""]
+            frows.append(row)
+    _csv(out / "wan2018_campaign_faults.csv",
+         ["run", "name", "manoeuvre", "wind", "channel", "kind", "t_start_s", "params_si",
+          "monitor_detected", "monitor_delay_s", "median_detected", "median_delay_s"], frows)
     mrows = [[m, r.group, r.n_fault_free, r.n_faulty, r.far_pct, r.mdr_pct, r.fir_pct,
               r.delay_max_s, r.delay_mean_s] for m, t in res["tables"].items() for r in t]
     _csv(out / "wan2018_campaign_metrics.csv",

@@ -120,6 +120,12 @@ def test_quick_campaign_metrics(tmp_path: Path) -> None:
         if method == "monitor":
             assert float(far) == 0.0  # thresholds from fault-free calibration seeds
     assert (tmp_path / "wan2018_campaign_delays.png").stat().st_size > 0
+    faults = (tmp_path / "wan2018_campaign_faults.csv").read_text().splitlines()
+    head = faults[0].split(",")
+    assert head[:6] == ["run", "name", "manoeuvre", "wind", "channel", "kind"]
+    body = [dict(zip(head, f.split(","), strict=True)) for f in faults[1:]]
+    assert body and all(b["monitor_detected"] in ("0", "1") for b in body)
+    assert all(b["kind"] == "jam" or b["params_si"] for b in body)  # every other kind has params
 
 
 def test_calibration_runs_open_loop() -> None:
