@@ -74,7 +74,7 @@ class SetMonitorParams:
     history_n: int = 200
     reclassify_every_n: int = 50
     stuck_n: int = 0
-    stuck_ratio: float = 0.01
+    stuck_ratio: float = 1.0e-3
     no_data_n: int = 0
 
     def __post_init__(self) -> None:
@@ -110,9 +110,15 @@ class FrozenSignalCheck:
     The first condition keeps a healthy instance from looking frozen next to a peer with a
     noise or oscillation fault (its own activity has not changed); the second keeps a set that
     calms down as a whole (turbulence ends, or the aircraft is parked) from being flagged. With
-    ``ratio = 0.01`` the change RMS must fall to a tenth of both: white noise alone keeps a
-    healthy sensor near 1. Two jammed instances of a triplex are both found while one moves;
-    three are left to the residual test.
+    ``ratio = 1e-3`` (the default of :class:`SetMonitorParams`) the change RMS must fall to 3 %
+    of both: white noise alone keeps a healthy sensor near 1. For a window of n = 10 samples
+    (0.5 s at 20 Hz) the chance that white noise falls below 1e-3 of its mean square is
+    2.5e-13 per test (small-ball bound for the quadratic form of the n differences, with
+    ``ratio = 0.01`` it would be 2.5e-8: about one false "stuck" per few hundred
+    instance-hours of pure-noise calm air); a jammed sensor's changes are exactly zero. Two
+    jammed instances of a triplex are both found while one moves; three are left to the
+    residual test. A sensor whose quantisation step exceeds its noise repeats values in calm
+    air: give it a longer window.
     """
 
     __slots__ = ("n", "ratio", "floor", "past_n", "_prev", "_sq", "_sum", "_idx", "_count",
