@@ -474,6 +474,11 @@ def campaign_markdown(res: dict[str, Any], n_runs: int, n_cal: int,
               "delay:", ""]
     lines.append(_md(["family", "AoA detected", "AoA delay mean / max [s]", "CAS detected",
                       "CAS delay mean / max [s]"], per_family_rows(res["records"])))
+    lines += ["", "By fault size against J_th (bias: |b|, oscillation: amplitude / sqrt 2, noise: "
+              "sigma; the other families have no size parameter), monitor: detected / injected, "
+              "mean and max delay:", ""]
+    lines.append(_md(["fault size", "AoA detected", "AoA delay mean / max [s]", "CAS detected",
+                      "CAS delay mean / max [s]"], per_size_rows(fault_rows(res), th)))
     return "\n".join(lines)
 
 
@@ -493,6 +498,75 @@ def per_family_rows(recs: Sequence[RunRecord]) -> list[list[str]]:
     return rows
 
 
+FAULT_ROW_HEAD = ["run", "name", "manoeuvre", "wind", "channel", "kind", "t_start_s", "params_si",
+                  "monitor_detected", "monitor_delay_s", "median_detected", "median_delay_s"]
+
+
+def fault_rows(res: dict[str, Any]) -> list[list[Any]]:
+    """Every injected fault of a campaign (``FAULT_ROW_HEAD``): its Table II parameters (SI)
+    and, per method, whether and how soon it was detected."""
+    recs: list[RunRecord] = res["records"]
+    out = []
+    for r, sc in zip(recs, res.get("scenarios", [None] * len(recs)), strict=True):
+        spec = {f.channel: f for f in sc.faults} if sc is not None else {}
+        by = {(f.method, f.channel): f for f in r.fault_results}
+        for ft in r.faults:
+            ch = str(ft.channel)
+            fs = spec.get(ch)
+            params = ";".join(f"{k}={v:.6g}" if isinstance(v, float) else f"{k}={v}"
+                              for k, v in (fs.params if fs is not None else ()))
+            row: list[Any] = [r.index, r.name, r.manoeuvre, r.wind, ch, ft.kind,
+                              ft.t_start_us * 1e-6, params]
+            for m in (METHOD_MONITOR, METHOD_MEDIAN):
+                fr = by.get((m, ch))
+                row += [int(fr.detected), fr.delay_s] if fr is not None else ["", ""]
+            out.append(row)
+    return out
+
+
+def fault_size(kind: str, params_si: str) -> float | None:
+    """The size of a Table II fault, SI, comparable with J (an RMS): |bias|, oscillation
+    amplitude / sqrt(2), noise sigma; None for faults whose size is not a parameter (jam,
+    runaway, non-return to zero: they grow with time or follow the flight condition)."""
+    p = dict(kv.split("=", 1) for kv in params_si.split(";")) if params_si else {}
+    stem = {"bias": "bias", "oscillation": "amplitude", "noise": "sigma"}.get(kind)
+    if stem is None:
+        return None
+    v = next((float(x) for k, x in p.items() if k.startswith(stem)), None)
+    if v is None:
+        return None
+    return abs(v) / math.sqrt(2.0) if kind == "oscillation" else abs(v)
+
+
+def per_size_rows(rows: Sequence[Sequence[Any]], thresholds: dict[str, float]) -> list[list[str]]:
+    """Monitor detection by fault size against J_th (bias, oscillation, noise) and for the
+    families without a size parameter."""
+    head = FAULT_ROW_HEAD
+    bins: dict[tuple[str, str], list[float | None]] = {}
+    order = ["size >= 2 J_th", "J_th <= size < 2 J_th", "size < J_th", "jam", "runaway", "nrz"]
+    for row in rows:
+        d = dict(zip(head, row, strict=True))
+        g = "aoa" if str(d["channel"]).startswith("aoa") else "cas"
+        size = fault_size(str(d["kind"]), str(d["params_si"]))
+        if size is None:
+            key = str(d["kind"])
+        else:
+            q = size / thresholds[g]
+            key = order[0] if q >= 2.0 else order[1] if q >= 1.0 else order[2]
+        det = str(d["monitor_detected"]) == "1"
+        bins.setdefault((g, key), []).append(float(d["monitor_delay_s"]) if det else None)
+    out = []
+    for key in order:
+        row_ = [key]
+        for g in ("aoa", "cas"):
+            v = bins.get((g, key), [])
+            dl = [x for x in v if x is not None]
+            row_ += [f"{len(dl)} / {len(v)}" if v else "-",
+                     f"{_f(float(np.mean(dl)))} / {_f(max(dl))}" if dl else "-"]
+        out.append(row_)
+    return out
+
+
 def _campaign_files(res: dict[str, Any], out: Path) -> None:
     recs: list[RunRecord] = res["records"]
     rows = []
@@ -506,24 +580,8 @@ def _campaign_files(res: dict[str, Any], out: Path) -> None:
     _csv(out / "wan2018_campaign_runs.csv",
          ["run", "name", "duration_s", "manoeuvre", "wind", "faults", "method", "group",
           "false_alarm", "missed", "false_isolation", "delay_s"], rows)
-    frows = []
-    for r, sc in zip(recs, res.get("scenarios", [None] * len(recs)), strict=True):
-        spec = {f.channel: f for f in sc.faults} if sc is not None else {}
-        by = {(f.method, f.channel): f for f in r.fault_results}
-        for ft in r.faults:
-            ch = str(ft.channel)
-            fs = spec.get(ch)
-            params = ";".join(f"{k}={v:.6g}" if isinstance(v, float) else f"{k}={v}"
-                              for k, v in (fs.params if fs is not None else ()))
-            row = [r.index, r.name, r.manoeuvre, r.wind, ch, ft.kind, ft.t_start_us * 1e-6,
-                   params]
-            for m in (METHOD_MONITOR, METHOD_MEDIAN):
-                fr = by.get((m, ch))
-                row += [int(fr.detected), fr.delay_s] if fr is not None else ["", ""]
-            frows.append(row)
-    _csv(out / "wan2018_campaign_faults.csv",
-         ["run", "name", "manoeuvre", "wind", "channel", "kind", "t_start_s", "params_si",
-          "monitor_detected", "monitor_delay_s", "median_detected", "median_delay_s"], frows)
+    frows = fault_rows(res)
+    _csv(out / "wan2018_campaign_faults.csv", FAULT_ROW_HEAD, frows)
     mrows = [[m, r.group, r.n_fault_free, r.n_faulty, r.far_pct, r.mdr_pct, r.fir_pct,
               r.delay_max_s, r.delay_mean_s] for m, t in res["tables"].items() for r in t]
     _csv(out / "wan2018_campaign_metrics.csv",

@@ -111,7 +111,7 @@ def test_demo_preset_alarms_exactly_the_faulty_instances() -> None:
 @pytest.mark.slow
 def test_quick_campaign_metrics(tmp_path: Path) -> None:
     md = wan2018.wan2018_campaign(tmp_path, 1, True)
-    assert "Table IV" in md and "Table III" in md
+    assert "Table IV" in md and "Table III" in md and "By fault size against J_th" in md
     rows = (tmp_path / "wan2018_campaign_metrics.csv").read_text().splitlines()
     assert len(rows) == 1 + 4  # (monitor, median_vote) x (aoa, cas)
     for line in rows[1:]:
@@ -126,6 +126,23 @@ def test_quick_campaign_metrics(tmp_path: Path) -> None:
     body = [dict(zip(head, f.split(","), strict=True)) for f in faults[1:]]
     assert body and all(b["monitor_detected"] in ("0", "1") for b in body)
     assert all(b["kind"] == "jam" or b["params_si"] for b in body)  # every other kind has params
+
+
+def test_fault_size_by_hand() -> None:
+    assert wan2018.fault_size("bias", "bias_rad=-0.05") == pytest.approx(0.05)
+    assert wan2018.fault_size("oscillation", "amplitude_mps=10;frequency_hz=2") == \
+        pytest.approx(10 / np.sqrt(2))
+    assert wan2018.fault_size("noise", "sigma_rad=0.02") == pytest.approx(0.02)
+    assert wan2018.fault_size("nrz", "ratio=0.1") is None
+    assert wan2018.fault_size("jam", "") is None
+    th = {"aoa": 0.02, "cas": 4.0}
+    rows = [[0, "r", "level", "calm", "aoa0", "bias", 10.0, "bias_rad=0.05", 1, 0.2, 0, ""],
+            [0, "r", "level", "calm", "aoa1", "bias", 10.0, "bias_rad=0.01", 0, "", 0, ""],
+            [1, "r", "level", "calm", "cas2", "jam", 12.0, "", 1, 0.5, 1, 3.0]]
+    out = {r[0]: r[1:] for r in wan2018.per_size_rows(rows, th)}
+    assert out["size >= 2 J_th"][:2] == ["1 / 1", "0.20 / 0.20"]
+    assert out["size < J_th"][:2] == ["0 / 1", "-"]
+    assert out["jam"] == ["-", "-", "1 / 1", "0.50 / 0.50"]
 
 
 def test_calibration_runs_open_loop() -> None:
