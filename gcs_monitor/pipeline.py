@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from gcs_monitor.config import MonitorConfig, SetConfig
+from gcs_monitor.config import MonitorConfig, SetConfig, scheduled_threshold
 from gcs_monitor.core.types import ChannelId
 from gcs_monitor.core.units import DEG2RAD, KT2MPS
 from gcs_monitor.estimators.base import Estimate, Estimator
@@ -170,9 +170,14 @@ class VehiclePipeline:
         self.airdata = airdata
         self.sinks = list(sinks)
         ref_name = airdata.name if airdata is not None else "voting"
-        self.aoa_set = RedundantSetMonitor("aoa", n_aoa, set_params("aoa", cfg.fdi.aoa, AIR_DT_S),
+        sigma = cfg.airdata.turbulence_sigma_mps  # declared weather: J_th of the air-data sets
+        aoa_cfg = dataclasses.replace(cfg.fdi.aoa,
+                                      threshold=scheduled_threshold(cfg.fdi.aoa, sigma))
+        cas_cfg = dataclasses.replace(cfg.fdi.cas,
+                                      threshold=scheduled_threshold(cfg.fdi.cas, sigma))
+        self.aoa_set = RedundantSetMonitor("aoa", n_aoa, set_params("aoa", aoa_cfg, AIR_DT_S),
                                            estimator=ref_name, vehicle=vehicle)
-        self.cas_set = RedundantSetMonitor("cas", n_cas, set_params("cas", cfg.fdi.cas, AIR_DT_S),
+        self.cas_set = RedundantSetMonitor("cas", n_cas, set_params("cas", cas_cfg, AIR_DT_S),
                                            estimator=ref_name, vehicle=vehicle)
         self._channels: dict[tuple[str, ChannelId], ChannelMonitor] = {}
         self._aoa_pred = math.nan
@@ -182,9 +187,9 @@ class VehiclePipeline:
         self._est_event: dict[str, AlarmEvent] = {}  # active re-initialisation notice
         self._last_sets: list[SetStatus] = []
         self._airdata_estimate: Estimate | None = None
-        self._aoa_fusion = MheMeasurementFusion(n_aoa, cfg.fdi.aoa.threshold, cfg.fdi.aoa.n_eval,
+        self._aoa_fusion = MheMeasurementFusion(n_aoa, aoa_cfg.threshold, aoa_cfg.n_eval,
                                                 AIR_WEIGHT_FLOOR_RATIO)
-        self._cas_fusion = MheMeasurementFusion(n_cas, cfg.fdi.cas.threshold, cfg.fdi.cas.n_eval,
+        self._cas_fusion = MheMeasurementFusion(n_cas, cas_cfg.threshold, cas_cfg.n_eval,
                                                 AIR_WEIGHT_FLOOR_RATIO)
         self.frames = 0
         self.active: dict[ChannelId, AlarmEvent] = {}

@@ -10,9 +10,10 @@ from gcs_monitor.config.loader import (
     SinksConfig,
     TelemetryConfig,
     load_config,
+    scheduled_threshold,
 )
 
 __all__ = [
     "AirDataConfig", "ConfigError", "EstimatorsConfig", "FdiConfig", "MonitorConfig", "SetConfig",
-    "SinksConfig", "TelemetryConfig", "load_config",
+    "SinksConfig", "TelemetryConfig", "load_config", "scheduled_threshold",
 ]

@@ -43,10 +43,20 @@ class SetConfig:
     # frozen-signal (jam) check of a redundant set, window in s; 0 turns it off
     # (gcs_monitor.fdi.monitor.FrozenSignalCheck; used by the AoA and CAS sets)
     stuck_window_s: float = 0.5
+    # J_th grows with the declared turbulence: J_th = threshold + threshold_per_turbulence *
+    # airdata.turbulence_sigma_mps (SI per m/s of Dryden sigma; 0 = one fixed J_th as Wan2018).
+    # TOML: threshold_slope_deg_per_mps (aoa), threshold_slope_kts_per_mps (cas).
+    threshold_per_turbulence: float = 0.0
     # no-data check: an instance without a valid value for this long while a peer delivers is
     # isolated (fault type no_data); 0 turns it off (AoA and CAS sets). It counts after the
     # telemetry's stale_after_s has made the instance invalid.
     no_data_window_s: float = 0.5
+
+
+def scheduled_threshold(cfg: SetConfig, turbulence_sigma_mps: float) -> float:
+    """J_th of a set for the declared Dryden intensity (SI): the fault-free residual floor of
+    the air-data sets grows with the gusts the one-step prediction cannot foresee."""
+    return cfg.threshold + cfg.threshold_per_turbulence * turbulence_sigma_mps
 
 
 HOSM_ACC_MPS2 = 0.64  # imu_hosm thresholds (FdiConfig.acc_hosm, gyro_hosm), see there
@@ -230,10 +240,12 @@ def _set_config(name: str, data: dict[str, Any], src: str) -> SetConfig:
     unit = _SET_UNITS[name]
     thr_key = f"threshold_{unit}"
     data = dict(data)
+    slope_key = f"threshold_slope_{unit}_per_mps"
     for k in list(data):
-        if k.startswith("threshold") and k != thr_key:
+        if k.startswith("threshold") and k not in (thr_key, slope_key):
             raise ConfigError(f"{src}: '{k}' in [fdi.{name}]: the threshold of this set is given "
-                              f"as '{thr_key}'")
+                              f"as '{thr_key}' (and its growth with the declared turbulence as "
+                              f"'{slope_key}')")
     default = getattr(FdiConfig(), name)
     threshold = default.threshold
     if thr_key in data:
@@ -242,8 +254,15 @@ def _set_config(name: str, data: dict[str, Any], src: str) -> SetConfig:
             raise ConfigError(f"{src}: 'fdi.{name}.{thr_key}' must be a positive number")
         factor = {"deg": DEG2RAD, "kts": KT2MPS, "mps2": 1.0, "degps": DEG2RAD}[unit]
         threshold = float(raw) * factor
+    slope = default.threshold_per_turbulence
+    if slope_key in data:
+        raw = data.pop(slope_key)
+        if isinstance(raw, bool) or not isinstance(raw, int | float) or raw < 0:
+            raise ConfigError(f"{src}: 'fdi.{name}.{slope_key}' must be a non-negative number")
+        slope = float(raw) * {"deg": DEG2RAD, "kts": KT2MPS, "mps2": 1.0, "degps": DEG2RAD}[unit]
     partial = _build(_SetPartial, data, f"fdi.{name}", src)
-    cfg = SetConfig(threshold=threshold, n_eval=partial.n_eval or default.n_eval,
+    cfg = SetConfig(threshold=threshold, threshold_per_turbulence=slope,
+                    n_eval=partial.n_eval or default.n_eval,
                     n_detect=partial.n_detect or default.n_detect,
                     clear_ratio=default.clear_ratio if partial.clear_ratio is None
                     else partial.clear_ratio,

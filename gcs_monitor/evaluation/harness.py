@@ -42,7 +42,7 @@ from typing import Any
 
 import numpy as np
 
-from gcs_monitor.config import AirDataConfig, MonitorConfig
+from gcs_monitor.config import AirDataConfig, MonitorConfig, scheduled_threshold
 from gcs_monitor.core.units import KT2MPS
 from gcs_monitor.core.types import ChannelId
 from gcs_monitor.fdi.baselines import MedianVoteMonitor, MedianVoteParams, fixed_threshold_monitor
@@ -181,7 +181,9 @@ class _AirRecorder:
 
     def __init__(self, cfg: MonitorConfig) -> None:
         self.stale_s = cfg.telemetry.stale_after_s
-        th = {"aoa": cfg.fdi.aoa.threshold, "cas": cfg.fdi.cas.threshold}
+        sigma = cfg.airdata.turbulence_sigma_mps  # the baselines get the monitor's J_th
+        th = {"aoa": scheduled_threshold(cfg.fdi.aoa, sigma),
+              "cas": scheduled_threshold(cfg.fdi.cas, sigma)}
         persistence = {"aoa": cfg.fdi.aoa.n_detect, "cas": cfg.fdi.cas.n_detect}
         self.baselines: dict[str, dict[str, MedianVoteMonitor]] = {
             METHOD_MEDIAN: {s: MedianVoteMonitor(s, 3, MedianVoteParams(

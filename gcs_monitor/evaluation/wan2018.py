@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from gcs_monitor.config import EstimatorsConfig, MonitorConfig
+from gcs_monitor.config import EstimatorsConfig, MonitorConfig, scheduled_threshold
 from gcs_monitor.core.atmosphere import tas_from_cas
 from gcs_monitor.core.units import DEG2RAD, KT2MPS
 from gcs_monitor.evaluation.harness import (
@@ -114,9 +114,16 @@ def open_loop(cfg: MonitorConfig) -> MonitorConfig:
     return with_thresholds(cfg, OPEN_LOOP_AOA_RAD, OPEN_LOOP_CAS_MPS)
 
 
-def with_thresholds(cfg: MonitorConfig, aoa_rad: float, cas_mps: float) -> MonitorConfig:
-    fdi = dataclasses.replace(cfg.fdi, aoa=dataclasses.replace(cfg.fdi.aoa, threshold=aoa_rad),
-                              cas=dataclasses.replace(cfg.fdi.cas, threshold=cas_mps))
+def with_thresholds(cfg: MonitorConfig, aoa_rad: float, cas_mps: float,
+                    aoa_per_turbulence: float = 0.0, cas_per_turbulence: float = 0.0
+                    ) -> MonitorConfig:
+    """``cfg`` with the AoA/CAS J_th (SI) and their growth per m/s of declared turbulence."""
+    fdi = dataclasses.replace(
+        cfg.fdi,
+        aoa=dataclasses.replace(cfg.fdi.aoa, threshold=aoa_rad,
+                                threshold_per_turbulence=aoa_per_turbulence),
+        cas=dataclasses.replace(cfg.fdi.cas, threshold=cas_mps,
+                                threshold_per_turbulence=cas_per_turbulence))
     return dataclasses.replace(cfg, fdi=fdi)
 
 
@@ -367,12 +374,36 @@ def campaign_scenarios(n_runs: int, seed: int, duration_s: tuple[float, float],
     return generate(n_runs, seed, ranges=r)
 
 
+CALIBRATION_K = 1.5  # J_th = 1.5 x the worst fault-free J (harness j_calibrated, Wan2018 VI-B)
+
+
+def threshold_schedule(points: Sequence[tuple[float, float]], k: float = CALIBRATION_K,
+                       min_runs: int = 5) -> tuple[float, float]:
+    """J_th as a line in the declared turbulence, ``J_th(sigma) = k (J_0 + s sigma)``, from
+    (declared Dryden sigma, worst fault-free J) of each calibration run (SI).
+
+    Wan2018 sec. VI-B takes one J_th from the worst fault-free run of the whole campaign; the
+    fault-free residual floor, though, is set by the gusts the one-step prediction cannot foresee
+    (sigma_w / V per sample for AoA, sigma_u for CAS) and so grows with the turbulence the flight
+    declares. ``J_0`` is the worst J of the runs declaring none, ``s`` the smallest slope that
+    keeps every turbulent run under the line: the paper's rule "the worst fault-free J", applied
+    at every turbulence level. With fewer than ``min_runs`` calm or turbulent calibration runs
+    the line is not trusted: one fixed J_th (slope 0) as the paper. Returns (J_th at sigma = 0,
+    slope), SI and SI per m/s."""
+    calm = [j for sig, j in points if sig <= 0.0]
+    if len(calm) < min_runs or len(points) - len(calm) < min_runs:
+        return k * max((j for _, j in points), default=0.0), 0.0
+    j0 = max(calm)
+    slope = max((max(j - j0, 0.0) / sig for sig, j in points if sig > 0.0), default=0.0)
+    return k * j0, k * slope
+
+
 def calibrate_campaign(n_runs: int, jobs: int, duration_s: tuple[float, float],
                        base: MonitorConfig, *, seed: int = CALIBRATION_SEED,
                        progress: bool = True) -> tuple[dict[str, float], dict[str, float]]:
     """J_th per set from fault-free runs (Wan2018 sec. VI-B: the worst fault-free residual RMS
-    so that the fault-free runs raise no alarm): ``1.5 x max J`` over all healthy instances of
-    ``n_runs`` fault-free runs of the calibration seed (harness ``j_calibrated``).
+    so that the fault-free runs raise no alarm), scheduled on the declared turbulence
+    (:func:`threshold_schedule`) over ``n_runs`` fault-free runs of the calibration seed.
     The calibration runs are open loop (:func:`open_loop`): no instance is isolated, so the J
     measured is the residual generator's own fault-free level. (Calibrating with the default
     thresholds in place let false isolations in the calibration runs remove a whole set from
@@ -380,12 +411,18 @@ def calibrate_campaign(n_runs: int, jobs: int, duration_s: tuple[float, float],
     that, not the residual generator, produced the 7.9 deg / 54 kt "worst fault-free J" of
     the first campaign.)
 
-    Returns (thresholds, worst fault-free J), SI."""
+    Returns (thresholds, worst fault-free J), SI: ``thresholds[set]`` is J_th at zero declared
+    turbulence, ``thresholds[set + "_per_turbulence"]`` its growth per m/s of Dryden sigma."""
     scs = campaign_scenarios(n_runs, seed, duration_s, fault_free_only=True)
     work = [(i, sc, open_loop(base)) for i, sc in enumerate(scs)]
     res = _pool(_campaign_run, work, jobs, "calibrate", progress)
-    th = {s: max(r.j_calibrated.get(s, 0.0) for r, _ in res) for s in ("aoa", "cas")}
+    sig = [declared_weather(sc, base.airdata).turbulence_sigma_mps for sc in scs]
+    th: dict[str, float] = {}
+    for s in ("aoa", "cas"):
+        th[s], th[f"{s}_per_turbulence"] = threshold_schedule(
+            [(x, r.j_max.get(s, 0.0)) for x, (r, _) in zip(sig, res, strict=True)])
     jmax = {s: max(r.j_max.get(s, 0.0) for r, _ in res) for s in ("aoa", "cas")}
+    jmax["turbulence_max"] = max(sig, default=0.0)
     return th, jmax
 
 
@@ -411,7 +448,8 @@ def run_campaign_wan2018(n_runs: int, n_cal: int, jobs: int, duration_s: tuple[f
     t0 = time.perf_counter()
     base = variant_config(variant)
     th, jmax = calibrate_campaign(n_cal, jobs, duration_s, base, progress=progress)
-    cfg = with_thresholds(base, th["aoa"], th["cas"])
+    cfg = with_thresholds(base, th["aoa"], th["cas"], th["aoa_per_turbulence"],
+                          th["cas_per_turbulence"])
     scs = campaign_scenarios(n_runs, seed, duration_s)
     res = _pool(_campaign_run, [(i, sc, cfg) for i, sc in enumerate(scs)], jobs, "campaign",
                 progress)
@@ -435,6 +473,8 @@ def _row(rows: Sequence[MetricsRow], g: str) -> MetricsRow:
 def campaign_markdown(res: dict[str, Any], n_runs: int, n_cal: int,
                       duration_s: tuple[float, float]) -> str:
     th = res["thresholds"]
+    sig_max = res["jmax_cal"].get("turbulence_max", 0.0)
+    jth_max = {g: th[g] + th.get(f"{g}_per_turbulence", 0.0) * sig_max for g in ("aoa", "cas")}
     cats = res["categories"]
     lines = [
         f"Runs: {n_runs} (seed {CAMPAIGN_SEED}; categories "
@@ -442,10 +482,14 @@ def campaign_markdown(res: dict[str, Any], n_runs: int, n_cal: int,
         f"{duration_s[0]:g}-{duration_s[1]:g} s, {res['sim_s']:.0f} simulated s in "
         f"{res['wall_s']:.0f} s wall. Estimator: {res['variant'].upper()}.",
         f"Thresholds from {n_cal} fault-free runs of seed {CALIBRATION_SEED}, run open loop (no "
-        f"isolation), each with its declared weather (1.5 x worst fault-free J): J_th AoA = "
-        f"{th['aoa'] / DEG2RAD:.3f} deg (worst J "
-        f"{res['jmax_cal']['aoa'] / DEG2RAD:.3f}), CAS = {th['cas'] / KT2MPS:.2f} kt (worst J "
-        f"{res['jmax_cal']['cas'] / KT2MPS:.2f}); Wan2018: 2.9 deg, 12 kts.",
+        f"isolation), each with its declared weather, scheduled on the declared turbulence "
+        f"sigma (1.5 x the worst fault-free J at each level, `threshold_schedule`): J_th AoA = "
+        f"{th['aoa'] / DEG2RAD:.3f} deg + {th['aoa_per_turbulence'] / DEG2RAD:.3f} deg per m/s "
+        f"of sigma ({jth_max['aoa'] / DEG2RAD:.3f} deg at the largest declared sigma, "
+        f"{sig_max:.2f} m/s; worst J {res['jmax_cal']['aoa'] / DEG2RAD:.3f}), CAS = "
+        f"{th['cas'] / KT2MPS:.2f} kt + {th['cas_per_turbulence'] / KT2MPS:.2f} kt per m/s "
+        f"({jth_max['cas'] / KT2MPS:.2f} kt; worst J {res['jmax_cal']['cas'] / KT2MPS:.2f}); "
+        f"Wan2018: 2.9 deg, 12 kts.",
         "",
         "Table IV (FDI):",
         "",
@@ -499,16 +543,23 @@ def per_family_rows(recs: Sequence[RunRecord]) -> list[list[str]]:
 
 
 FAULT_ROW_HEAD = ["run", "name", "manoeuvre", "wind", "channel", "kind", "t_start_s", "params_si",
-                  "monitor_detected", "monitor_delay_s", "median_detected", "median_delay_s"]
+                  "j_th_si", "monitor_detected", "monitor_delay_s", "median_detected",
+                  "median_delay_s"]
 
 
 def fault_rows(res: dict[str, Any]) -> list[list[Any]]:
     """Every injected fault of a campaign (``FAULT_ROW_HEAD``): its Table II parameters (SI)
     and, per method, whether and how soon it was detected."""
     recs: list[RunRecord] = res["records"]
+    cfg: MonitorConfig | None = res.get("cfg")
     out = []
     for r, sc in zip(recs, res.get("scenarios", [None] * len(recs)), strict=True):
         spec = {f.channel: f for f in sc.faults} if sc is not None else {}
+        jth: dict[str, Any] = {"aoa": "", "cas": ""}
+        if cfg is not None and sc is not None:
+            sig = declared_weather(sc, cfg.airdata).turbulence_sigma_mps
+            jth = {"aoa": scheduled_threshold(cfg.fdi.aoa, sig),
+                   "cas": scheduled_threshold(cfg.fdi.cas, sig)}
         by = {(f.method, f.channel): f for f in r.fault_results}
         for ft in r.faults:
             ch = str(ft.channel)
@@ -516,7 +567,7 @@ def fault_rows(res: dict[str, Any]) -> list[list[Any]]:
             params = ";".join(f"{k}={v:.6g}" if isinstance(v, float) else f"{k}={v}"
                               for k, v in (fs.params if fs is not None else ()))
             row: list[Any] = [r.index, r.name, r.manoeuvre, r.wind, ch, ft.kind,
-                              ft.t_start_us * 1e-6, params]
+                              ft.t_start_us * 1e-6, params, jth[ft.channel.kind]]
             for m in (METHOD_MONITOR, METHOD_MEDIAN):
                 fr = by.get((m, ch))
                 row += [int(fr.detected), fr.delay_s] if fr is not None else ["", ""]
@@ -539,8 +590,9 @@ def fault_size(kind: str, params_si: str) -> float | None:
 
 
 def per_size_rows(rows: Sequence[Sequence[Any]], thresholds: dict[str, float]) -> list[list[str]]:
-    """Monitor detection by fault size against J_th (bias, oscillation, noise) and for the
-    families without a size parameter."""
+    """Monitor detection by fault size against the run's J_th (column ``j_th_si``, else
+    ``thresholds[set]``) for bias, oscillation and noise, and for the families without a size
+    parameter."""
     head = FAULT_ROW_HEAD
     bins: dict[tuple[str, str], list[float | None]] = {}
     order = ["size >= 2 J_th", "J_th <= size < 2 J_th", "size < J_th", "jam", "runaway", "nrz"]
@@ -551,7 +603,8 @@ def per_size_rows(rows: Sequence[Sequence[Any]], thresholds: dict[str, float]) -
         if size is None:
             key = str(d["kind"])
         else:
-            q = size / thresholds[g]
+            jt = d.get("j_th_si", "")
+            q = size / (float(jt) if jt not in ("", None) else thresholds[g])
             key = order[0] if q >= 2.0 else order[1] if q >= 1.0 else order[2]
         det = str(d["monitor_detected"]) == "1"
         bins.setdefault((g, key), []).append(float(d["monitor_delay_s"]) if det else None)

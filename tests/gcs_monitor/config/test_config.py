@@ -125,3 +125,27 @@ def test_no_data_window_reaches_the_set_monitor(tmp_path):
     assert set_params("cas", c.fdi.cas, AIR_DT_S).no_data_n == 0  # off
     assert set_params("aoa", c.fdi.aoa, AIR_DT_S).no_data_n == 30  # 1.5 s at 20 Hz
     assert set_params("cas", load_config(None).fdi.cas, AIR_DT_S).no_data_n == 10  # 0.5 s
+
+
+def test_threshold_grows_with_the_declared_turbulence(tmp_path):
+    from gcs_monitor.config import scheduled_threshold
+    from gcs_monitor.core.units import DEG2RAD, KT2MPS
+    from gcs_monitor.pipeline import VehiclePipeline
+
+    c = load_config(_write(tmp_path, "[fdi.aoa]\nthreshold_deg = 0.5\n"
+                                     "threshold_slope_deg_per_mps = 0.2\n"
+                                     "[fdi.cas]\nthreshold_kts = 1.5\n"
+                                     "threshold_slope_kts_per_mps = 1.0\n"
+                                     "[airdata]\nturbulence_sigma_kts = 4\n"))
+    sigma = 4 * KT2MPS
+    assert c.airdata.turbulence_sigma_mps == pytest.approx(sigma)
+    assert scheduled_threshold(c.fdi.aoa, sigma) == pytest.approx((0.5 + 0.2 * sigma) * DEG2RAD)
+    # the pipeline's set monitors use the scheduled J_th
+    p = VehiclePipeline(1, c)
+    assert p.aoa_set.p.threshold == pytest.approx((0.5 + 0.2 * sigma) * DEG2RAD)
+    assert p.cas_set.p.threshold == pytest.approx((1.5 + 1.0 * sigma) * KT2MPS)
+    # no slope given: one fixed J_th (Wan2018), whatever the weather
+    d = load_config(_write(tmp_path, "[airdata]\nturbulence_sigma_kts = 4\n"))
+    assert VehiclePipeline(1, d).aoa_set.p.threshold == pytest.approx(d.fdi.aoa.threshold)
+    with pytest.raises(ConfigError, match="threshold_slope_deg_per_mps"):
+        load_config(_write(tmp_path, "[fdi.aoa]\nthreshold_slope_deg = 0.2\n"))

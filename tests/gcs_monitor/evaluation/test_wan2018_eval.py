@@ -136,13 +136,33 @@ def test_fault_size_by_hand() -> None:
     assert wan2018.fault_size("nrz", "ratio=0.1") is None
     assert wan2018.fault_size("jam", "") is None
     th = {"aoa": 0.02, "cas": 4.0}
-    rows = [[0, "r", "level", "calm", "aoa0", "bias", 10.0, "bias_rad=0.05", 1, 0.2, 0, ""],
-            [0, "r", "level", "calm", "aoa1", "bias", 10.0, "bias_rad=0.01", 0, "", 0, ""],
-            [1, "r", "level", "calm", "cas2", "jam", 12.0, "", 1, 0.5, 1, 3.0]]
+    rows = [[0, "r", "level", "calm", "aoa0", "bias", 10.0, "bias_rad=0.05", "", 1, 0.2, 0, ""],
+            [0, "r", "level", "calm", "aoa1", "bias", 10.0, "bias_rad=0.01", "", 0, "", 0, ""],
+            # its own J_th (a turbulent run): 0.05 is then below J_th
+            [2, "r", "level", "turbulence", "aoa2", "bias", 10.0, "bias_rad=0.05", 0.06, 1, 9.0,
+             0, ""],
+            [1, "r", "level", "calm", "cas2", "jam", 12.0, "", "", 1, 0.5, 1, 3.0]]
     out = {r[0]: r[1:] for r in wan2018.per_size_rows(rows, th)}
     assert out["size >= 2 J_th"][:2] == ["1 / 1", "0.20 / 0.20"]
-    assert out["size < J_th"][:2] == ["0 / 1", "-"]
+    assert out["size < J_th"][:2] == ["1 / 2", "9.00 / 9.00"]
     assert out["jam"] == ["-", "-", "1 / 1", "0.50 / 0.50"]
+
+
+def test_threshold_schedule_by_hand() -> None:
+    # calm runs: worst J 0.3; turbulent: (1, 0.5) needs slope 0.2, (2, 0.6) 0.15 -> 0.2
+    j0, s = wan2018.threshold_schedule([(0.0, 0.2), (0.0, 0.3), (1.0, 0.5), (2.0, 0.6)],
+                                       min_runs=2)
+    assert (j0, s) == pytest.approx((1.5 * 0.3, 1.5 * 0.2))
+    # every calibration run lies under the line, one touches it
+    pts = [(0.0, 0.2), (0.0, 0.3), (1.0, 0.5), (2.0, 0.6)]
+    assert all(j <= (j0 + s * x) / 1.5 + 1e-12 for x, j in pts)
+    # a turbulent run quieter than the calm ones never gives a negative slope
+    assert wan2018.threshold_schedule([(0.0, 0.3), (2.0, 0.1)], min_runs=1) == \
+        pytest.approx((0.45, 0.0))
+    # too few calm (or turbulent) runs to trust a line: one fixed J_th, as Wan2018
+    assert wan2018.threshold_schedule([(1.0, 0.5), (2.0, 0.6)], min_runs=1) == \
+        pytest.approx((0.9, 0.0))
+    assert wan2018.threshold_schedule(pts) == pytest.approx((0.9, 0.0))  # default min_runs 5
 
 
 def test_calibration_runs_open_loop() -> None:
