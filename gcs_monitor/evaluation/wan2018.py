@@ -462,6 +462,7 @@ def run_campaign_wan2018(n_runs: int, n_cal: int, jobs: int, duration_s: tuple[f
         c = sc.description.split("category ")[1].split(",")[0]
         cats[c] = cats.get(c, 0) + 1
     return {"tables": tables, "table3": t3, "thresholds": th, "jmax_cal": jmax, "records": recs,
+            "err_stats": [st for _, st in res],
             "categories": cats, "sim_s": sum(sc.duration_s for sc in scs), "scenarios": scs,
             "wall_s": time.perf_counter() - t0, "variant": variant, "cfg": cfg}
 
@@ -622,17 +623,22 @@ def per_size_rows(rows: Sequence[Sequence[Any]], thresholds: dict[str, float]) -
 
 def _campaign_files(res: dict[str, Any], out: Path) -> None:
     recs: list[RunRecord] = res["records"]
+    errs = res.get("err_stats", [{}] * len(recs))
     rows = []
-    for r in recs:
+    for r, st in zip(recs, errs, strict=True):
         for m in (METHOD_MONITOR, METHOD_MEDIAN):
             for g, o in r.outcomes[m].items():
+                # Table III per run (MHE output vs truth, SI): monitor rows only
+                e = st.get(g) if m == METHOD_MONITOR else None
                 rows.append([r.index, r.name, r.duration_s, r.manoeuvre, r.wind,
                              ";".join(f"{f.channel}:{f.kind}" for f in r.faults), m, g,
                              int(o.false_alarm), int(o.missed), int(o.false_isolation),
-                             o.delay_s])
+                             o.delay_s, "" if e is None else e[0], "" if e is None else e[1]])
     _csv(out / "wan2018_campaign_runs.csv",
          ["run", "name", "duration_s", "manoeuvre", "wind", "faults", "method", "group",
-          "false_alarm", "missed", "false_isolation", "delay_s"], rows)
+          "false_alarm", "missed", "false_isolation", "delay_s", "est_err_max_si",
+          "est_err_mean_si"],
+         rows)
     frows = fault_rows(res)
     _csv(out / "wan2018_campaign_faults.csv", FAULT_ROW_HEAD, frows)
     mrows = [[m, r.group, r.n_fault_free, r.n_faulty, r.far_pct, r.mdr_pct, r.fir_pct,
