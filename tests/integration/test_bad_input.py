@@ -3,7 +3,8 @@
 The base stream is a fault-free simulated flight (lu2016_calm with its faults removed, 8 s).
 Each test damages it one way and checks that the Monitor keeps running, counts the damage in
 ``Monitor.health()``, reinitialises what must be, and never raises a sensor-fault alarm for a
-link problem (link problems are ``AlarmKind.LINK``).
+link problem (link problems are ``AlarmKind.LINK``). One probe that stops delivering while its
+peers go on is a sensor fault (``no_data``), not a link problem.
 """
 
 from __future__ import annotations
@@ -13,7 +14,9 @@ import math
 import socket
 
 import numpy as np
+import pytest
 
+from gcs_monitor.link.mav import mavlink
 from gcs_monitor.link.transports import TlogSource
 from tests.helpers.mavgen import MavGen, drop, duplicate, flip_bits, join, reorder, to_tlog
 from tests.integration.support import msg_name, repack, run_monitor
@@ -216,3 +219,25 @@ def test_unbindable_zenoh_listen_endpoint(base_packets):
     assert sink_h["n_errors"] >= 1 and sink_h["active"] is False
     assert sink_h["n_dropped"] > 0  # what could not be published is counted
     assert r.health["vehicles"]["1"]["vehicle_time_s"] > 1.0
+
+
+def _airspeed_id(packet: bytes) -> int:
+    return int(mavlink.MAVLink(None).decode(bytearray(packet)).id)
+
+
+@pytest.mark.parametrize("how", ["silent", "out_of_range"])
+def test_one_airspeed_instance_stops_delivering(base_packets, how):
+    """One CAS probe goes silent (or sends only impossible values) from t = 4 s while its peers
+    keep delivering: the no-data check isolates exactly that probe (fault type no_data)."""
+    out = []
+    for t, p in base_packets:
+        if t >= 4_000_000 and msg_name(p) == "AIRSPEED" and _airspeed_id(p) == 1:
+            if how == "silent":
+                continue
+            p = repack(p, airspeed=-5.0)
+        out.append((t, p))
+    r = run_monitor(join(out))
+    raised = [e for e in r.sensor_alarms if e.state.value == "raised"]
+    assert [(str(e.channel), e.fault_type.value) for e in raised] == [("cas1", "no_data")]
+    # stale after 0.5 s, then 0.5 s of no data at 20 Hz
+    assert 4.9e6 <= raised[0].t_us <= 4e6 + 1.3e6
