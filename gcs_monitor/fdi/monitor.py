@@ -343,19 +343,19 @@ class RedundantSetMonitor:
                     stuck[i] = True
                 elif not latch:
                     stuck[i] = False
-        lost = self._no_data
+        no_data = self._no_data
         if self.p.no_data_n:
-            self._lost_update(usable)
+            self._no_data_update(usable)
         for i in rng:
             ri = r[i]
             if ri == ri:
                 j = rms[i].update(ri)
                 J[i] = j
                 hist[i].push(ri, m[i])
-                if (conf[i].update(j, th) or stuck[i] or lost[i]) != faulty[i]:
+                if (conf[i].update(j, th) or stuck[i] or no_data[i]) != faulty[i]:
                     faulty[i] = not faulty[i]
                     changed = True
-            elif (stuck[i] or lost[i]) and not faulty[i]:
+            elif (stuck[i] or no_data[i]) and not faulty[i]:
                 faulty[i] = changed = True
         self._usable = usable
 
@@ -386,7 +386,7 @@ class RedundantSetMonitor:
                            faulty=tuple(faulty), configuration=label)
         return status, events
 
-    def _lost_update(self, usable: list[bool]) -> None:
+    def _no_data_update(self, usable: list[bool]) -> None:
         """No-data check: count the samples each seen instance goes without a valid value while
         some peer delivers (a whole set going quiet -- a link gap -- counts for nobody)."""
         any_usable = any(usable)
