@@ -398,14 +398,30 @@ def threshold_schedule(points: Sequence[tuple[float, float]], k: float = CALIBRA
     return k * j0, k * slope
 
 
+SCHEDULE_CALM_RUNS = 120  # fault-free runs of seed CALIBRATION_SEED + 1 drawn for the calm floor
+SCHEDULE_CALM_DURATION_S = (60.0, 200.0)  # several s-turn / doublet cycles each
+
+
+def calm_calibration_scenarios(n_runs: int = SCHEDULE_CALM_RUNS) -> list[Any]:
+    """Extra fault-free runs for the calm end of the threshold schedule: the non-turbulent ones
+    among ``n_runs`` draws of the campaign generator (seed ``CALIBRATION_SEED + 1``, durations
+    ``SCHEDULE_CALM_DURATION_S``), so that every manoeuvre is seen in calm air several times."""
+    scs = campaign_scenarios(n_runs, CALIBRATION_SEED + 1, SCHEDULE_CALM_DURATION_S,
+                             fault_free_only=True)
+    return [sc for sc in scs if "turbulence" not in sc.wind.kind]
+
+
 def calibrate_campaign(n_runs: int, jobs: int, duration_s: tuple[float, float],
                        base: MonitorConfig, *, seed: int = CALIBRATION_SEED,
-                       progress: bool = True, schedule: bool = False
+                       progress: bool = True, schedule: bool = False,
+                       n_calm: int = SCHEDULE_CALM_RUNS
                        ) -> tuple[dict[str, float], dict[str, float]]:
     """J_th per set from fault-free runs (Wan2018 sec. VI-B: the worst fault-free residual RMS
     so that the fault-free runs raise no alarm): ``1.5 x max J`` over ``n_runs`` fault-free runs
     of the calibration seed, or with ``schedule`` a line in the declared turbulence
-    (:func:`threshold_schedule`).
+    (:func:`threshold_schedule`), whose calm end also gets the non-turbulent runs of
+    :func:`calm_calibration_scenarios` (``n_calm`` draws): the calm floor of the first schedule,
+    set by 16 calm runs, was crossed by two calm s-turns of the campaign.
     The calibration runs are open loop (:func:`open_loop`): no instance is isolated, so the J
     measured is the residual generator's own fault-free level. (Calibrating with the default
     thresholds in place let false isolations in the calibration runs remove a whole set from
@@ -416,6 +432,9 @@ def calibrate_campaign(n_runs: int, jobs: int, duration_s: tuple[float, float],
     Returns (thresholds, worst fault-free J), SI: ``thresholds[set]`` is J_th at zero declared
     turbulence, ``thresholds[set + "_per_turbulence"]`` its growth per m/s of Dryden sigma."""
     scs = campaign_scenarios(n_runs, seed, duration_s, fault_free_only=True)
+    n_main = len(scs)
+    if schedule and n_calm:
+        scs += calm_calibration_scenarios(n_calm)
     work = [(i, sc, open_loop(base)) for i, sc in enumerate(scs)]
     res = _pool(_campaign_run, work, jobs, "calibrate", progress)
     sig = [declared_weather(sc, base.airdata).turbulence_sigma_mps for sc in scs]
@@ -427,6 +446,7 @@ def calibrate_campaign(n_runs: int, jobs: int, duration_s: tuple[float, float],
             else (CALIBRATION_K * max((j for _, j in pts), default=0.0), 0.0))
     jmax = {s: max(r.j_max.get(s, 0.0) for r, _ in res) for s in ("aoa", "cas")}
     jmax["turbulence_max"] = max(sig, default=0.0)
+    jmax["calm_runs_extra"] = float(len(scs) - n_main)
     return th, jmax
 
 
@@ -447,13 +467,14 @@ def table3(stats: Sequence[tuple[bool, dict[str, tuple[float, float]]]]) -> dict
 
 def run_campaign_wan2018(n_runs: int, n_cal: int, jobs: int, duration_s: tuple[float, float],
                          *, variant: str = "cmhe", seed: int = CAMPAIGN_SEED,
-                         progress: bool = True, schedule: bool = False) -> dict[str, Any]:
+                         progress: bool = True, schedule: bool = False,
+                         n_calm: int = SCHEDULE_CALM_RUNS) -> dict[str, Any]:
     """Calibrate J_th on fault-free seeds (one J_th per set, or scheduled on the declared
     turbulence), then run the campaign (monitor + median vote)."""
     t0 = time.perf_counter()
     base = variant_config(variant)
     th, jmax = calibrate_campaign(n_cal, jobs, duration_s, base, progress=progress,
-                                  schedule=schedule)
+                                  schedule=schedule, n_calm=n_calm)
     cfg = with_thresholds(base, th["aoa"], th["cas"], th["aoa_per_turbulence"],
                           th["cas_per_turbulence"])
     scs = campaign_scenarios(n_runs, seed, duration_s)
@@ -489,7 +510,9 @@ def campaign_markdown(res: dict[str, Any], n_runs: int, n_cal: int,
         + ", ".join(f"{k}: {v}" for k, v in sorted(cats.items())) + f"), durations "
         f"{duration_s[0]:g}-{duration_s[1]:g} s, {res['sim_s']:.0f} simulated s in "
         f"{res['wall_s']:.0f} s wall. Estimator: {res['variant'].upper()}.",
-        (f"Thresholds from {n_cal} fault-free runs of seed {CALIBRATION_SEED}, run open loop (no "
+        (f"Thresholds from {n_cal} fault-free runs of seed {CALIBRATION_SEED} and "
+         f"{res['jmax_cal'].get('calm_runs_extra', 0.0):.0f} non-turbulent ones of seed "
+         f"{CALIBRATION_SEED + 1} (60-200 s), run open loop (no "
          f"isolation), each with its declared weather, scheduled on the declared turbulence "
          f"sigma (1.5 x the worst fault-free J at each level, `threshold_schedule`): J_th AoA = "
          f"{th['aoa'] / DEG2RAD:.3f} deg + {th['aoa_per_turbulence'] / DEG2RAD:.3f} deg per "
@@ -728,7 +751,8 @@ def wan2018_campaign(out_dir: Path, jobs: int = 1, quick: bool = False,
         n, n_cal, dur = 12, 4, (40.0, 60.0)
     else:
         n, n_cal, dur = 249, 40, FULL_DURATION_S
-    res = run_campaign_wan2018(n, n_cal, jobs, dur, schedule=schedule)
+    res = run_campaign_wan2018(n, n_cal, jobs, dur, schedule=schedule,
+                               n_calm=12 if quick else SCHEDULE_CALM_RUNS)
     _campaign_files(res, out)
     md = campaign_markdown(res, n, n_cal, dur)
     (out / "wan2018_campaign.md").write_text(md + "\n")
