@@ -97,6 +97,16 @@ def test_shipped_weather_configs_load(name):
     assert c.airdata.wind_mps > 0.0
 
 
+def test_shipped_wan2018_transport_config_loads():
+    from pathlib import Path
+
+    c = load_config(Path(__file__).resolve().parents[3] / "configs" / "wan2018_transport.toml")
+    assert c.fdi.aoa.threshold == pytest.approx(math.radians(1.364))
+    assert c.fdi.cas.threshold > c.fdi.cas.threshold_per_turbulence == 0.0
+    assert c.fdi.aoa.stuck_window_s == c.fdi.cas.no_data_window_s == 0.5
+    assert c.estimators.airdata == "cmhe"
+
+
 def test_airdata_model_switch_reaches_the_estimator(tmp_path):
     from gcs_monitor.monitor import build_estimators
 
