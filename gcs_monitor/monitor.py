@@ -55,7 +55,8 @@ def build_estimators(cfg: MonitorConfig) -> tuple[list[Estimator], Any | None]:
         from gcs_monitor.estimators.airdata import AirDataEstimator, AirDataEstimatorConfig
 
         est_cfg = AirDataEstimatorConfig(envelope=wind_envelope(cfg),
-                                         wind_accel_in_alpha=cfg.airdata.wind_accel_in_alpha)
+                                         wind_accel_in_alpha=cfg.airdata.wind_accel_in_alpha,
+                                         lateral_terms=cfg.airdata.lateral_terms)
         airdata = AirDataEstimator(est_cfg, variant=cfg.estimators.airdata)
     return imu, airdata
 

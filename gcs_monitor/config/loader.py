@@ -103,7 +103,8 @@ class AirDataConfig:
     section ``[airdata]``, keys in knots: ``wind_kts``, ``wind_z_kts``, ``shear_kts``,
     ``shear_z_kts``, ``shear_rate_ktsps``, ``turbulence_sigma_kts``, plus
     ``turbulence_scale_m``, ``n_sigma``, ``flight_path_max_deg``, ``model_margin_kts``,
-    ``model_rate_margin_ktsps``; ``wind_accel_in_alpha`` switches the model between eq. 8's
+    ``model_rate_margin_ktsps``; ``lateral_terms`` adds bank and sideslip to eqs. 12-15;
+    ``wind_accel_in_alpha`` switches the model between eq. 8's
     wind-acceleration term and Wan2018 eq. 13). The estimator turns it into bounds at every sample
     (``gcs_monitor.models.airdata.envelope_bounds``). Defaults: 18 m/s wind, 3 m/s vertical
     wind, 1.5 m/s^2 wind acceleration, no turbulence declared; with the model margins this
@@ -125,6 +126,9 @@ class AirDataConfig:
     model_margin_mps: float = _ENV.model_margin_mps
     model_rate_margin_mps2: float = _ENV.model_rate_margin_mps2
     wind_accel_in_alpha: bool = True  # eq. 8 term in the model (False: Wan2018 eq. 13)
+    # bank and sideslip in eqs. 12-15 (models.airdata.lateral; ours; False: Wan2018's
+    # wings-level, zero-sideslip forms exactly)
+    lateral_terms: bool = False
 
 
 # TOML key -> (field, factor to SI)
@@ -143,19 +147,22 @@ _AIRDATA_KEYS = {
 }
 
 
+_AIRDATA_BOOLS = ("wind_accel_in_alpha", "lateral_terms")
+
+
 def _airdata_config(data: Any, src: str) -> AirDataConfig:
     if not isinstance(data, dict):
         raise ConfigError(f"{src}: [airdata] must be a table")
     kwargs: dict[str, Any] = {}
     for key, value in data.items():
-        if key == "wind_accel_in_alpha":
+        if key in _AIRDATA_BOOLS:
             if not isinstance(value, bool):
                 raise ConfigError(f"{src}: 'airdata.{key}' must be true or false, got {value!r}")
             kwargs[key] = value
             continue
         if key not in _AIRDATA_KEYS:
             raise ConfigError(f"{src}: unknown key 'airdata.{key}'; expected one of "
-                              f"{sorted([*_AIRDATA_KEYS, 'wind_accel_in_alpha'])}")
+                              f"{sorted([*_AIRDATA_KEYS, *_AIRDATA_BOOLS])}")
         if isinstance(value, bool) or not isinstance(value, int | float) or value < 0:
             raise ConfigError(f"{src}: 'airdata.{key}' must be a non-negative number, got "
                               f"{value!r}")

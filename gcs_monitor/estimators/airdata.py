@@ -103,6 +103,9 @@ class AirDataEstimatorConfig:
     envelope: WindEnvelope | None = None
     # eq. 8's wind-acceleration term in alpha_dot (AirDataModelParams); False = eq. 13 exactly
     wind_accel_in_alpha: bool = True
+    # Theta gets [phi, beta] (bank from ATTITUDE, sideslip from AOA_SSA, 0 when absent) and the
+    # model the exact flight-path and gravity terms (models.airdata.lateral); False: Wan2018
+    lateral_terms: bool = False
     kappa_init: float = 1.0e-2
     n_s_max: int = 12
 
@@ -296,6 +299,10 @@ class AirDataEstimator:
             return None, "baro altitude missing"
         vg = self._ground_speed(frame)
         mean = self._acc_sum / self._acc_n
+        if self.cfg.lateral_terms:
+            beta = frame.ssa_rad if math.isfinite(frame.ssa_rad) else 0.0
+            return np.array([vg, frame.euler_rad[1], mean[2], mean[0], mean[1], frame.baro_alt_m,
+                             frame.euler_rad[0], beta]), ""
         return np.array([vg, frame.euler_rad[1], mean[2], mean[0], mean[1], frame.baro_alt_m]), ""
 
     @staticmethod

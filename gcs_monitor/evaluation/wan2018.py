@@ -468,11 +468,16 @@ def table3(stats: Sequence[tuple[bool, dict[str, tuple[float, float]]]]) -> dict
 def run_campaign_wan2018(n_runs: int, n_cal: int, jobs: int, duration_s: tuple[float, float],
                          *, variant: str = "cmhe", seed: int = CAMPAIGN_SEED,
                          progress: bool = True, schedule: bool = False,
-                         n_calm: int = SCHEDULE_CALM_RUNS) -> dict[str, Any]:
+                         n_calm: int = SCHEDULE_CALM_RUNS, lateral: bool = False
+                         ) -> dict[str, Any]:
     """Calibrate J_th on fault-free seeds (one J_th per set, or scheduled on the declared
-    turbulence), then run the campaign (monitor + median vote)."""
+    turbulence), then run the campaign (monitor + median vote). ``lateral`` adds bank and
+    sideslip to the model (``[airdata] lateral_terms``; ours)."""
     t0 = time.perf_counter()
     base = variant_config(variant)
+    if lateral:
+        base = dataclasses.replace(base, airdata=dataclasses.replace(base.airdata,
+                                                                     lateral_terms=True))
     th, jmax = calibrate_campaign(n_cal, jobs, duration_s, base, progress=progress,
                                   schedule=schedule, n_calm=n_calm)
     cfg = with_thresholds(base, th["aoa"], th["cas"], th["aoa_per_turbulence"],
@@ -489,6 +494,7 @@ def run_campaign_wan2018(n_runs: int, n_cal: int, jobs: int, duration_s: tuple[f
         c = sc.description.split("category ")[1].split(",")[0]
         cats[c] = cats.get(c, 0) + 1
     return {"tables": tables, "table3": t3, "thresholds": th, "jmax_cal": jmax, "records": recs,
+            "lateral": lateral,
             "err_stats": [st for _, st in res],
             "categories": cats, "sim_s": sum(sc.duration_s for sc in scs), "scenarios": scs,
             "wall_s": time.perf_counter() - t0, "variant": variant, "cfg": cfg}
@@ -509,7 +515,9 @@ def campaign_markdown(res: dict[str, Any], n_runs: int, n_cal: int,
         f"Runs: {n_runs} (seed {CAMPAIGN_SEED}; categories "
         + ", ".join(f"{k}: {v}" for k, v in sorted(cats.items())) + f"), durations "
         f"{duration_s[0]:g}-{duration_s[1]:g} s, {res['sim_s']:.0f} simulated s in "
-        f"{res['wall_s']:.0f} s wall. Estimator: {res['variant'].upper()}.",
+        f"{res['wall_s']:.0f} s wall. Estimator: {res['variant'].upper()}"
+        + (" with bank and sideslip in eqs. 12-15 (`lateral_terms`)." if res.get("lateral")
+           else " (Wan2018's wings-level model)."),
         (f"Thresholds from {n_cal} fault-free runs of seed {CALIBRATION_SEED} and "
          f"{res['jmax_cal'].get('calm_runs_extra', 0.0):.0f} non-turbulent ones of seed "
          f"{CALIBRATION_SEED + 1} (60-200 s), run open loop (no "
@@ -744,7 +752,7 @@ def wan2018_calibration(out_dir: Path, jobs: int = 1, quick: bool = False) -> st
 
 
 def wan2018_campaign(out_dir: Path, jobs: int = 1, quick: bool = False,
-                     schedule: bool = False) -> str:
+                     schedule: bool = False, lateral: bool = False) -> str:
     """Wan2018 sec. VI-B: 249 runs (140 fault-free), Tables III and IV, median-vote baseline."""
     out = Path(out_dir)
     if quick:
@@ -752,7 +760,7 @@ def wan2018_campaign(out_dir: Path, jobs: int = 1, quick: bool = False,
     else:
         n, n_cal, dur = 249, 40, FULL_DURATION_S
     res = run_campaign_wan2018(n, n_cal, jobs, dur, schedule=schedule,
-                               n_calm=12 if quick else SCHEDULE_CALM_RUNS)
+                               n_calm=12 if quick else SCHEDULE_CALM_RUNS, lateral=lateral)
     _campaign_files(res, out)
     md = campaign_markdown(res, n, n_cal, dur)
     (out / "wan2018_campaign.md").write_text(md + "\n")
@@ -763,6 +771,12 @@ def wan2018_campaign_scheduled(out_dir: Path, jobs: int = 1, quick: bool = False
     """The same campaign with J_th scheduled on the declared turbulence
     (:func:`threshold_schedule`), our alternative to Wan2018's single J_th."""
     return wan2018_campaign(out_dir, jobs, quick, schedule=True)
+
+
+def wan2018_campaign_lateral(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
+    """The same campaign with bank and sideslip in the model (``[airdata] lateral_terms``)
+    and J_th scheduled on the declared turbulence: our extensions of Wan2018 together."""
+    return wan2018_campaign(out_dir, jobs, quick, schedule=True, lateral=True)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -777,6 +791,7 @@ def experiments() -> dict[str, Callable[[Path, int, bool], str]]:
         "wan2018_fig3": wan2018_fig3,
         "wan2018_campaign": wan2018_campaign,
         "wan2018_campaign_scheduled": wan2018_campaign_scheduled,
+        "wan2018_campaign_lateral": wan2018_campaign_lateral,
         "wan2018_onspeed": wan2018_onspeed,
         "wan2018_calibration": wan2018_calibration,
     }

@@ -46,6 +46,7 @@ def linearise_horizon(n, x_lin, u_lin, th, dts, ym, mk, g, k_wacc, consts, a, b,
     Parameters
     ----------
     x_lin : (N, 4) linearisation states; u_lin : (N-1, 4) inputs; th : (N, 6) Theta_i
+    (or (N, 8) with phi, beta: ``airdata.lateral``)
     dts : (N,) t_s from node i to i+1; ym, mk : (N, 4) outputs and output mask
     g : gravity (m/s^2); k_wacc : 1.0 to keep the eq. 8 wind-acceleration term in alpha
     (``AirDataModelParams.wind_accel_in_alpha``), 0.0 for eq. 13; consts : ``airdata._JIT_CONSTS``
@@ -53,10 +54,16 @@ def linearise_horizon(n, x_lin, u_lin, th, dts, ym, mk, g, k_wacc, consts, a, b,
     for i in range(n):
         alpha, vg_x, wx, wz = x_lin[i, 0], x_lin[i, 1], x_lin[i, 2], x_lin[i, 3]
         vg, theta, q, ax, az, alt = th[i, 0], th[i, 1], th[i, 2], th[i, 3], th[i, 4], th[i, 5]
+        phi, beta = (th[i, 6], th[i, 7]) if th.shape[1] > 7 else (0.0, 0.0)  # airdata.lateral
+        sa, ca = math.sin(alpha), math.cos(alpha)
+        st, ct, cp = math.sin(theta), math.cos(theta), math.cos(phi)
+        sb, cb = math.sin(beta), math.cos(beta)
         # outputs (eqs. 1, 11, 15, 16) and their Jacobian (eq. 23, c_22 = 0)
         d = alpha - theta
         sd, cd = math.sin(d), math.cos(d)
-        vz_up = -vg * sd - wz
+        sg = ca * cb * st - (math.sin(phi) * sb + cp * sa * cb) * ct  # sin(-d) at phi = beta = 0
+        dsg = -sa * cb * st - cp * ca * cb * ct  # -cos(d) at phi = beta = 0
+        vz_up = vg * sg - wz
         tas = vg - wx * cd - wz * sd
         cas, dcas = _cas_and_derivative(tas, alt, consts)
         h0, h1, h2, h3 = vg_x, vz_up, alpha, cas
@@ -69,7 +76,7 @@ def linearise_horizon(n, x_lin, u_lin, th, dts, ym, mk, g, k_wacc, consts, a, b,
             for c in range(4):
                 cm[i, r, c] = 0.0
         cm[i, 0, 1] = 1.0 * m0
-        cm[i, 1, 0] = -vg * cd * m1
+        cm[i, 1, 0] = vg * dsg * m1
         cm[i, 1, 3] = -1.0 * m1
         cm[i, 2, 0] = 1.0 * m2
         cm[i, 3, 0] = dcas * (wx * sd - wz * cd) * m3
@@ -77,9 +84,9 @@ def linearise_horizon(n, x_lin, u_lin, th, dts, ym, mk, g, k_wacc, consts, a, b,
         cm[i, 3, 3] = -dcas * sd * m3
         if i < n - 1:
             dt = dts[i]
-            sa, ca = math.sin(alpha), math.cos(alpha)
-            f_alpha = -ax * sa + az * ca + g * math.cos(alpha - theta)
-            f_v = ax * ca + az * sa + g * math.sin(alpha - theta)
+            # gravity terms (airdata._gravity_terms): g cos(d), g sin(d) at phi = 0
+            f_alpha = -ax * sa + az * ca + g * (ca * ct * cp + sa * st)
+            f_v = ax * ca + az * sa + g * (sa * ct * cp - ca * st)
             # eq. 20 and the defect of eq. 42
             uwx, uwz = u_lin[i, 2], u_lin[i, 3]
             wacc = k_wacc * (uwx * sd - uwz * cd) / vg  # eq. 8 term (or 0: eq. 13)
@@ -87,8 +94,8 @@ def linearise_horizon(n, x_lin, u_lin, th, dts, ym, mk, g, k_wacc, consts, a, b,
             f[i, 1] = vg_x + dt * (f_v + u_lin[i, 1]) - x_lin[i + 1, 1]
             f[i, 2] = wx + dt * (0.0 + u_lin[i, 2]) - x_lin[i + 1, 2]
             f[i, 3] = wz + dt * (0.0 + u_lin[i, 3]) - x_lin[i + 1, 3]
-            d_falpha = -ax * ca - az * sa - g * math.sin(alpha - theta)
-            d_fv = -ax * sa + az * ca + g * math.cos(alpha - theta)
+            d_falpha = -ax * ca - az * sa + g * (-sa * ct * cp + ca * st)
+            d_fv = -ax * sa + az * ca + g * (ca * ct * cp + sa * st)
             for r in range(4):
                 for c in range(4):
                     a[i, r, c] = 0.0

@@ -36,12 +36,50 @@ from gcs_monitor.core.types import Mat, Vec
 N_X = 4  # [alpha, V_g, W_x, W_z]
 N_U = 4  # [u_alpha, u_v, u_wx, u_wz]
 N_Y = 4  # [V_g, V_z, alpha, V_c]
-N_THETA = 6  # [V_g, theta, q, A_x, A_z, z]
+N_THETA = 6  # [V_g, theta, q, A_x, A_z, z]; 8 with the lateral terms: + [phi, beta]
 
 # Indices into the state, output and parameter vectors.
 IX_AOA, IX_VG, IX_WX, IX_WZ = 0, 1, 2, 3
 IY_VG, IY_VZ, IY_AOA, IY_CAS = 0, 1, 2, 3
 IT_VG, IT_THETA, IT_Q, IT_AX, IT_AZ, IT_Z = 0, 1, 2, 3, 4, 5
+IT_PHI, IT_BETA = 6, 7  # optional (ours): bank and sideslip, see :func:`lateral`
+
+
+def lateral(theta_p: Vec) -> tuple[float, float]:
+    """(phi, beta) of an 8-entry Theta, (0, 0) for Wan2018's 6-entry one.
+
+    Wan2018's eqs. 12-15 are the wings-level, zero-sideslip forms of the exact longitudinal
+    relations (ours, not in the paper; docs/papers-notes.md "lateral terms"):
+
+    * gravity along the body normal and along the velocity: ``g cos(alpha - theta)`` and
+      ``g sin(alpha - theta)`` are ``g (cos a cos th cos phi + sin a sin th)`` and
+      ``g (sin a cos th cos phi - cos a sin th)``;
+    * the flight-path angle of eq. 15: ``sin(theta - alpha)`` is ``sin(gamma) = cos a cos b
+      sin th - (sin phi sin b + cos phi sin a cos b) cos th``.
+
+    With phi = beta = 0 both reduce to the paper's terms exactly.
+    """
+    if theta_p.shape[0] > IT_BETA:
+        return float(theta_p[IT_PHI]), float(theta_p[IT_BETA])
+    return 0.0, 0.0
+
+
+def _gravity_terms(alpha: float, theta: float, phi: float) -> tuple[float, float, float, float]:
+    """(g_alpha, g_v, d g_alpha / d alpha, d g_v / d alpha) per unit g (see :func:`lateral`)."""
+    sa, ca = math.sin(alpha), math.cos(alpha)
+    st, ct, cp = math.sin(theta), math.cos(theta), math.cos(phi)
+    return (ca * ct * cp + sa * st, sa * ct * cp - ca * st,
+            -sa * ct * cp + ca * st, ca * ct * cp + sa * st)
+
+
+def _sin_gamma(alpha: float, theta: float, phi: float, beta: float) -> tuple[float, float]:
+    """(sin gamma_air, d / d alpha) of the exact flight-path relation (see :func:`lateral`)."""
+    sa, ca = math.sin(alpha), math.cos(alpha)
+    st, ct = math.sin(theta), math.cos(theta)
+    sp, cp = math.sin(phi), math.cos(phi)
+    sb, cb = math.sin(beta), math.cos(beta)
+    return (ca * cb * st - (sp * sb + cp * sa * cb) * ct,
+            -sa * cb * st - cp * ca * cb * ct)
 
 # Wan2018 eq. 16: 5 gamma R, the factor of T and T0 in the pitot-static relation.
 _K_CAS = 5.0 * c.ISA_GAMMA * c.ISA_R_JPKGK
@@ -127,8 +165,9 @@ def airdata_derivative(x: Vec, theta_p: Vec, p: AirDataModelParams) -> Vec:
         theta_p[IT_AZ],
     )
     sa, ca = math.sin(alpha), math.cos(alpha)
-    f_alpha = -ax * sa + az * ca + p.g_mps2 * math.cos(alpha - theta)
-    f_v = ax * ca + az * sa + p.g_mps2 * math.sin(alpha - theta)
+    g_a, g_v, _, _ = _gravity_terms(alpha, theta, lateral(theta_p)[0])
+    f_alpha = -ax * sa + az * ca + p.g_mps2 * g_a  # g cos(alpha - theta) at phi = 0
+    f_v = ax * ca + az * sa + p.g_mps2 * g_v  # g sin(alpha - theta) at phi = 0
     return np.array([f_alpha / vg + q, f_v, 0.0, 0.0])
 
 
@@ -154,8 +193,9 @@ def airdata_f_jac_x(
     alpha = x[IX_AOA]
     vg, theta, ax, az = theta_p[IT_VG], theta_p[IT_THETA], theta_p[IT_AX], theta_p[IT_AZ]
     sa, ca = math.sin(alpha), math.cos(alpha)
-    d_falpha = -ax * ca - az * sa - p.g_mps2 * math.sin(alpha - theta)
-    d_fv = -ax * sa + az * ca + p.g_mps2 * math.cos(alpha - theta)
+    _, _, dg_a, dg_v = _gravity_terms(alpha, theta, lateral(theta_p)[0])
+    d_falpha = -ax * ca - az * sa + p.g_mps2 * dg_a
+    d_fv = -ax * sa + az * ca + p.g_mps2 * dg_v
     a = np.eye(N_X)
     a[IX_AOA, IX_AOA] += dt_s * d_falpha / vg
     a[IX_VG, IX_AOA] = dt_s * d_fv
@@ -184,8 +224,8 @@ def airdata_h(x: Vec, theta_p: Vec) -> Vec:
 
     V_z is positive up and W_z positive down, see the module docstring.
     """
-    d = x[IX_AOA] - theta_p[IT_THETA]
-    vz_up = -theta_p[IT_VG] * math.sin(d) - x[IX_WZ]
+    sg, _ = _sin_gamma(x[IX_AOA], theta_p[IT_THETA], *lateral(theta_p))
+    vz_up = theta_p[IT_VG] * sg - x[IX_WZ]  # -V_g sin(alpha - theta) - W_z at phi = beta = 0
     cas, _ = cas_from_tas_with_derivative(tas_approx(x, theta_p), theta_p[IT_Z])
     return np.array([x[IX_VG], vz_up, x[IX_AOA], cas])
 
@@ -198,7 +238,7 @@ def airdata_h_jac_x(x: Vec, theta_p: Vec) -> Mat:
     _, dcas = cas_from_tas_with_derivative(tas_approx(x, theta_p), theta_p[IT_Z])
     cm = np.zeros((N_Y, N_X))
     cm[IY_VG, IX_VG] = 1.0
-    cm[IY_VZ, IX_AOA] = -vg * cd
+    cm[IY_VZ, IX_AOA] = vg * _sin_gamma(x[IX_AOA], theta_p[IT_THETA], *lateral(theta_p))[1]
     cm[IY_VZ, IX_WZ] = -1.0
     cm[IY_AOA, IX_AOA] = 1.0
     # dV_t/dalpha, dV_t/dW_x, dV_t/dW_z of eq. 11

@@ -159,3 +159,16 @@ def test_threshold_grows_with_the_declared_turbulence(tmp_path):
     assert VehiclePipeline(1, d).aoa_set.p.threshold == pytest.approx(d.fdi.aoa.threshold)
     with pytest.raises(ConfigError, match="threshold_slope_deg_per_mps"):
         load_config(_write(tmp_path, "[fdi.aoa]\nthreshold_slope_deg = 0.2\n"))
+
+
+def test_lateral_terms_switch_reaches_the_estimator(tmp_path):
+    from gcs_monitor.monitor import build_estimators
+
+    c = load_config(_write(tmp_path, "[airdata]\nlateral_terms = true\n"))
+    assert c.airdata.lateral_terms is True
+    _, est = build_estimators(c)
+    assert est.cfg.lateral_terms is True
+    _, est_default = build_estimators(load_config(None))
+    assert est_default.cfg.lateral_terms is False  # Wan2018's wings-level model by default
+    with pytest.raises(ConfigError, match="must be true or false"):
+        load_config(_write(tmp_path, "[airdata]\nlateral_terms = 1\n"))

@@ -28,7 +28,8 @@ from gcs_monitor.models.airdata import (
 P = AirDataModelParams()
 
 
-def _random_point(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+def _random_point(rng: np.random.Generator, lateral: bool = False
+                  ) -> tuple[np.ndarray, np.ndarray]:
     x = np.array(
         [rng.uniform(-0.05, 0.2), rng.uniform(80, 190), rng.uniform(-30, 30), rng.uniform(-5, 5)]
     )
@@ -42,6 +43,8 @@ def _random_point(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
             rng.uniform(0, 10000),
         ]
     )
+    if lateral:  # bank and sideslip (airdata.lateral)
+        th = np.concatenate((th, [rng.uniform(-0.6, 0.6), rng.uniform(-0.06, 0.06)]))
     return x, th
 
 
@@ -96,10 +99,11 @@ def test_cas_matches_core_atmosphere(alt_m: float) -> None:
         assert dcas == pytest.approx(fd, rel=1e-8)
 
 
+@pytest.mark.parametrize("lateral", [False, True])
 @pytest.mark.parametrize("seed", range(5))
-def test_jacobians_against_central_differences(seed: int) -> None:
+def test_jacobians_against_central_differences(seed: int, lateral: bool) -> None:
     rng = np.random.default_rng(seed)
-    x, th = _random_point(rng)
+    x, th = _random_point(rng, lateral)
     u = rng.standard_normal(4)
     dt = 0.05
     eps = np.array([1e-5, 1e-3, 1e-3, 1e-3])
@@ -136,7 +140,8 @@ def test_initial_state_inverts_the_output() -> None:
     np.testing.assert_allclose(x0, x, rtol=1e-9, atol=1e-9)
 
 
-def test_compiled_horizon_linearisation_matches_methods() -> None:
+@pytest.mark.parametrize("lateral", [False, True])
+def test_compiled_horizon_linearisation_matches_methods(lateral: bool) -> None:
     """models/_airdata_jit.py: A, B, defects, masked C and r_y over a horizon equal the numpy
     methods node by node (Wan2018 eq. 42), with one output masked."""
     if compiled_kernels() is None:
@@ -144,7 +149,7 @@ def test_compiled_horizon_linearisation_matches_methods() -> None:
     rng = np.random.default_rng(4)
     model = AirDataModel()
     big_n, n = 4, 3
-    pts = [_random_point(rng) for _ in range(big_n)]
+    pts = [_random_point(rng, lateral) for _ in range(big_n)]
     x_lin = np.array([p[0] for p in pts])
     th = np.array([p[1] for p in pts])
     u_lin = 0.01 * rng.standard_normal((big_n - 1, 4))
@@ -254,3 +259,33 @@ def test_eq8_wind_acceleration_moves_alpha_with_a_vertical_gust() -> None:
     x1, x0 = airdata_f(x, u, th, dt, P), airdata_f(x, np.zeros(4), th, dt, P)
     dvz = airdata_h(x1, th)[1] - airdata_h(x0, th)[1]
     assert abs(dvz) < dt * 12.0 * math.sin(d) ** 2 + 1e-6  # second order in d (+ O(dalpha^2))
+
+
+def test_lateral_terms_reduce_to_the_paper_and_match_the_kinematics() -> None:
+    """With phi = beta = 0 the 8-entry Theta gives Wan2018's eqs. 13-15 exactly; with bank and
+    sideslip V_z is the vertical component of the air velocity (body FRD -> NED by phi, theta)."""
+    rng = np.random.default_rng(21)
+    for _ in range(20):
+        x, th = _random_point(rng)
+        th8 = np.concatenate((th, [0.0, 0.0]))
+        np.testing.assert_allclose(airdata_h(x, th8), airdata_h(x, th), rtol=1e-13, atol=1e-12)
+        np.testing.assert_allclose(airdata_derivative(x, th8, P), airdata_derivative(x, th, P),
+                                   rtol=1e-13, atol=1e-13)
+    # no wind, V_g = V: V_z(up) = -(C_nb v_b)_down for v_b = V [ca cb, sb, sa cb]
+    v, alpha, beta, phi, theta = 250.0, 0.04, 0.05, -0.55, 0.03
+    th8 = np.array([v, theta, 0.0, 0.0, -9.8, 5000.0, phi, beta])
+    vb = v * np.array([math.cos(alpha) * math.cos(beta), math.sin(beta),
+                       math.sin(alpha) * math.cos(beta)])
+    sp, cp, st, ct = math.sin(phi), math.cos(phi), math.sin(theta), math.cos(theta)
+    down = -st * vb[0] + sp * ct * vb[1] + cp * ct * vb[2]  # third row of C_nb at psi = 0
+    y = airdata_h(np.array([alpha, v, 0.0, 0.0]), th8)
+    assert y[1] == pytest.approx(-down, rel=1e-12)
+    # the wings-level form is off by degrees of flight path here (Wan2018 eq. 15)
+    y6 = airdata_h(np.array([alpha, v, 0.0, 0.0]), th8[:6])
+    assert abs(y6[1] - y[1]) > 0.01 * v
+    # gravity along the body normal (alpha_dot) carries cos(phi): level turn at 30 deg bank
+    x = np.array([0.05, 200.0, 0.0, 0.0])
+    th_turn = np.array([200.0, 0.05, 0.0, 0.0, 0.0, 1000.0, math.radians(30.0), 0.0])
+    g_a = (airdata_derivative(x, th_turn, P)[0] - 0.0) * 200.0  # (A = 0, q = 0) -> g_alpha
+    assert g_a == pytest.approx(GRAVITY_STD_MPS2 * (math.cos(0.05) ** 2 * math.cos(math.radians(30))
+                                                    + math.sin(0.05) ** 2), rel=1e-12)
