@@ -779,6 +779,11 @@ def wan2018_campaign_lateral(out_dir: Path, jobs: int = 1, quick: bool = False) 
     return wan2018_campaign(out_dir, jobs, quick, schedule=True, lateral=True)
 
 
+def wan2018_campaign_lateral_only(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
+    """The lateral terms with Wan2018's single J_th: the model change on its own."""
+    return wan2018_campaign(out_dir, jobs, quick, schedule=False, lateral=True)
+
+
 # ------------------------------------------------------------------------------------------------
 # registry
 # ------------------------------------------------------------------------------------------------
@@ -792,6 +797,7 @@ def experiments() -> dict[str, Callable[[Path, int, bool], str]]:
         "wan2018_campaign": wan2018_campaign,
         "wan2018_campaign_scheduled": wan2018_campaign_scheduled,
         "wan2018_campaign_lateral": wan2018_campaign_lateral,
+        "wan2018_campaign_lateral_only": wan2018_campaign_lateral_only,
         "wan2018_onspeed": wan2018_onspeed,
         "wan2018_calibration": wan2018_calibration,
     }
