@@ -193,6 +193,7 @@ class MonitorConfig:
     airdata: AirDataConfig = field(default_factory=AirDataConfig)
 
 
+_UNIT_TO_SI = {"deg": DEG2RAD, "kts": KT2MPS, "mps2": 1.0, "degps": DEG2RAD}  # threshold keys
 _SET_UNITS = {"aoa": "deg", "cas": "kts", "acc": "mps2", "gyro": "degps",
               "acc_hosm": "mps2", "gyro_hosm": "degps"}
 _AIRDATA = ("cmhe", "umhe", "ekf", "none")
@@ -259,14 +260,13 @@ def _set_config(name: str, data: dict[str, Any], src: str) -> SetConfig:
         raw = data.pop(thr_key)
         if isinstance(raw, bool) or not isinstance(raw, int | float) or raw <= 0:
             raise ConfigError(f"{src}: 'fdi.{name}.{thr_key}' must be a positive number")
-        factor = {"deg": DEG2RAD, "kts": KT2MPS, "mps2": 1.0, "degps": DEG2RAD}[unit]
-        threshold = float(raw) * factor
+        threshold = float(raw) * _UNIT_TO_SI[unit]
     slope = default.threshold_per_turbulence
     if slope_key in data:
         raw = data.pop(slope_key)
         if isinstance(raw, bool) or not isinstance(raw, int | float) or raw < 0:
             raise ConfigError(f"{src}: 'fdi.{name}.{slope_key}' must be a non-negative number")
-        slope = float(raw) * {"deg": DEG2RAD, "kts": KT2MPS, "mps2": 1.0, "degps": DEG2RAD}[unit]
+        slope = float(raw) * _UNIT_TO_SI[unit]
     partial = _build(_SetPartial, data, f"fdi.{name}", src)
     cfg = SetConfig(threshold=threshold, threshold_per_turbulence=slope,
                     n_eval=partial.n_eval or default.n_eval,
