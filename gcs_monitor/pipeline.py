@@ -180,8 +180,6 @@ class VehiclePipeline:
         self.cas_set = RedundantSetMonitor("cas", n_cas, set_params("cas", cas_cfg, AIR_DT_S),
                                            estimator=ref_name, vehicle=vehicle)
         self._channels: dict[tuple[str, ChannelId], ChannelMonitor] = {}
-        self._aoa_pred = math.nan
-        self._cas_pred = math.nan
         self._est_start_us: dict[str, int] = {}  # judged from this time on, per estimator
         self._est_judging: set[str] = set()  # estimators whose channels were being judged
         self._est_event: dict[str, AlarmEvent] = {}  # active re-initialisation notice
@@ -267,8 +265,10 @@ class VehiclePipeline:
         if frame.air_new:
             out.sets = self._air_step(frame, out)
             self._last_sets = out.sets
-        elif self._airdata_estimate is not None:
-            out.estimates.append(self._airdata_estimate)
+        elif self.airdata is not None:
+            self.airdata.predict(frame)  # no air data: the IMU sample enters Theta's averages
+            if self._airdata_estimate is not None:
+                out.estimates.append(self._airdata_estimate)
         for ev in out.events:
             if ev.state.value == "cleared":
                 self.active.pop(ev.channel, None)
@@ -303,8 +303,11 @@ class VehiclePipeline:
                      for x, a in zip(aoa, _floats(frame.aoa_age_s))]
         cas_valid = [math.isfinite(x) and a < stale
                      for x, a in zip(cas, _floats(frame.cas_age_s))]
-        aoa_ref = self._aoa_pred if math.isfinite(self._aoa_pred) else None
-        cas_ref = self._cas_pred if math.isfinite(self._cas_pred) else None
+        # eq. 17: residuals of sample k against alpha_hat_{k|k-1}, V_c_hat_{k|k-1}, which the
+        # estimator predicts before it sees y_k (its step below then uses the eq. 19 fusion)
+        pred = self.airdata.predict(frame) if self.airdata is not None else None
+        aoa_ref = pred[0] if pred is not None and math.isfinite(pred[0]) else None
+        cas_ref = pred[1] if pred is not None and math.isfinite(pred[1]) else None
         s_aoa, ev_a = self.aoa_set.step(frame.t_us, aoa, aoa_valid, aoa_ref)
         s_cas, ev_c = self.cas_set.step(frame.t_us, cas, cas_valid, cas_ref)
         if ev_a or ev_c:
@@ -322,11 +325,6 @@ class VehiclePipeline:
             e = self.airdata.step(frame)
             out.estimates.append(e)
             self._airdata_estimate = e
-            if e.available and e.numerics_ok:
-                self._aoa_pred = float(e.states.get("aoa_pred_rad", [math.nan])[0])
-                self._cas_pred = float(e.states.get("cas_pred_mps", [math.nan])[0])
-            else:
-                self._aoa_pred = self._cas_pred = math.nan
         return [s_aoa, s_cas]
 
     def health(self) -> dict[str, Any]:

@@ -6,7 +6,8 @@ into residuals (eq. 17), RMS windows (eq. 18) and the fused measurement (eq. 19)
 
 Calling order per Frame, done by the FDI layer::
 
-    est.set_fused_measurements(aoa_fused, cas_fused)   # eq. 19 from the previous J; None = lost
+    pred = est.predict(frame)                          # (alpha, V_c)_{k|k-1}: eq. 17 reference
+    est.set_fused_measurements(aoa_fused, cas_fused)   # eq. 19 with the J of sample k; None = lost
     estimate = est.step(frame)
 
 Without ``set_fused_measurements`` the estimator fuses the valid instances with equal weights
@@ -17,6 +18,7 @@ without residuals, so residual windows count air-data samples (N_eval = 10, Wan2
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 from dataclasses import dataclass
@@ -36,6 +38,9 @@ from gcs_monitor.filters.mhe import (
     mhe_step,
 )
 from gcs_monitor.models.airdata import (
+    IT_AX,
+    IT_AZ,
+    IT_Q,
     IY_AOA,
     IY_CAS,
     N_U,
@@ -53,6 +58,7 @@ logger = logging.getLogger(__name__)
 VARIANTS = ("cmhe", "umhe", "ekf")
 VIRTUAL_AOA = ChannelId("aoa_virtual")
 VIRTUAL_CAS = ChannelId("cas_virtual")
+_IT_RATES = [IT_Q, IT_AX, IT_AZ]  # the entries of Theta averaged over the IMU samples
 
 
 @dataclass(frozen=True, slots=True)
@@ -106,6 +112,11 @@ class AirDataEstimatorConfig:
     # Theta gets [phi, beta] (bank from ATTITUDE, sideslip from AOA_SSA, 0 when absent) and the
     # model the exact flight-path and gravity terms (models.airdata.lateral); False: Wan2018
     lateral_terms: bool = False
+    # q, A_x, A_z of the transition k-1 -> k (eq. 20) are the IMU averages over (t_{k-1}, t_k],
+    # known when y_k arrives, i.e. the rates the step integrates. False: the averages over
+    # (t_{k-2}, t_{k-1}] that arrived with y_{k-1}, which lag the step by one t_s (0.4 deg of
+    # fault-free AoA residual in a 8 deg/s pitch transient; docs/papers-notes.md "Wan2018").
+    step_aligned_rates: bool = True
     kappa_init: float = 1.0e-2
     n_s_max: int = 12
 
@@ -180,6 +191,7 @@ class AirDataEstimator:
         self._fused: tuple[float | None, float | None] | None = None
         self._acc_sum = np.zeros(3)  # A_x, A_z, q summed since the last air-data step
         self._acc_n = 0
+        self._prepared: _Prepared | None = None
         self._last_states: dict[str, Vec] = {}
         self._last_virtual: dict[ChannelId, float] = {}
 
@@ -192,13 +204,26 @@ class AirDataEstimator:
             return self._ekf.x.copy()
         return None
 
+    def predict(self, frame: Frame) -> tuple[float, float] | None:
+        """One-step-ahead AoA and CAS ``(alpha_hat_{k|k-1}, V_c_hat_{k|k-1})`` for the air-data
+        sample of ``frame`` (eq. 29 through eq. 16), or None when there is none (no new air
+        data, start-up, gap, missing Theta). Every frame's IMU sample enters Theta's averages,
+        so a caller that steps only on air-data frames calls this on the others.
+
+        The prediction uses x_hat_{k-1|k-1} and Theta only, never y_k, so the FDI layer can
+        take the residuals of eq. 17 against it and form the eq. 19 fusion before
+        :meth:`step` of the same frame uses that fusion. Call it before :meth:`step`; the
+        work is shared (IMU samples are counted once per frame).
+        """
+        p = self._prepare(frame)
+        if p is None or p.y_pred is None:
+            return None
+        return float(p.y_pred[IY_AOA]), float(p.y_pred[IY_CAS])
+
     def step(self, frame: Frame) -> Estimate:
-        imu = frame.imu[0] if frame.imu else None
-        if imu is not None:
-            # Anti-aliasing: Theta's A_x, A_z, q are averaged over the IMU samples of the interval.
-            self._acc_sum += (imu.acc_frd_mps2[0], imu.acc_frd_mps2[2], imu.omega_frd_radps[1])
-            self._acc_n += 1
-        if not frame.air_new:
+        p = self._prepare(frame)
+        self._prepared = None
+        if p is None:
             return Estimate(
                 name=self.name,
                 t_us=frame.t_us,
@@ -206,32 +231,16 @@ class AirDataEstimator:
                 states=self._last_states,
                 virtual=self._last_virtual,
             )
-        theta_p, why = self._theta(frame)
         fused = self._fused
         self._fused = None
-        self._acc_sum[:] = 0.0
-        self._acc_n = 0
+        theta_p = p.theta_p
         if theta_p is None:
-            return Estimate.unavailable(self.name, frame.t_us, why)
+            return Estimate.unavailable(self.name, frame.t_us, p.reason)
         y, mask = self._measurements(frame, theta_p, fused)
-        roll = float(frame.euler_rad[0]) if frame.euler_rad is not None else 0.0
-        if self._t_prev_us is None or self._theta_prev is None:
-            self._schedule_bounds(theta_p, self.cfg.dt_nominal_s, roll)
+        if p.y_pred is None:  # start-up or gap
             self._start(frame.t_us, theta_p, y, mask)
-            return Estimate(name=self.name, t_us=frame.t_us, reason="initialised")
-        dt_s = (frame.t_us - self._t_prev_us) * 1e-6
-        if not 0.0 < dt_s <= self.cfg.max_dt_s:
-            self._start(frame.t_us, theta_p, y, mask)
-            return Estimate(name=self.name, t_us=frame.t_us, reason=f"air-data gap {dt_s:.3f} s")
-        self._schedule_bounds(theta_p, dt_s, roll)
-
-        # one-step-ahead prediction x_hat_{k|k-1} = F(x_hat_{k-1|k-1}, 0, Theta_{k-1}) (eq. 29)
-        if self._mhe is not None:
-            x_pred = mhe_predict(self._mhe, self.model, dt_s)
-        else:
-            assert self._ekf is not None
-            x_pred = self.model.f(self._ekf.x, np.zeros(N_U), self._theta_prev, dt_s)
-        y_pred = self.model.h(x_pred, theta_p)
+            return Estimate(name=self.name, t_us=frame.t_us, reason=p.reason)
+        dt_s, x_pred, y_pred = p.dt_s, p.x_pred, p.y_pred
         residuals: dict[ChannelId, float] = {}
         for i, v in enumerate(frame.aoa_rad):
             if np.isfinite(v):
@@ -287,6 +296,63 @@ class AirDataEstimator:
         )
 
     # ------------------------------------------------------------------ internals
+    def _prepare(self, frame: Frame) -> _Prepared | None:
+        """Everything of an air-data step that does not need y_k: Theta_k, t_s, the bounds
+        of the flight condition and x_hat_{k|k-1}. Once per frame (cached for :meth:`step`);
+        None on frames without new air data."""
+        if self._prepared is not None and self._prepared.frame is frame:
+            return self._prepared
+        imu = frame.imu[0] if frame.imu else None
+        if imu is not None:
+            # Anti-aliasing: Theta's A_x, A_z, q are averaged over the IMU samples of the interval.
+            self._acc_sum += (imu.acc_frd_mps2[0], imu.acc_frd_mps2[2], imu.omega_frd_radps[1])
+            self._acc_n += 1
+        if not frame.air_new:
+            self._prepared = None
+            return None
+        theta_p, why = self._theta(frame)
+        self._acc_sum[:] = 0.0
+        self._acc_n = 0
+        p = _Prepared(frame=frame, theta_p=theta_p, reason=why)
+        self._prepared = p
+        if theta_p is None:
+            return p
+        roll = float(frame.euler_rad[0]) if frame.euler_rad is not None else 0.0
+        if self._t_prev_us is None or self._theta_prev is None:
+            self._schedule_bounds(theta_p, self.cfg.dt_nominal_s, roll)
+            p.reason = "initialised"
+            return p
+        dt_s = (frame.t_us - self._t_prev_us) * 1e-6
+        if not 0.0 < dt_s <= self.cfg.max_dt_s:
+            p.reason = f"air-data gap {dt_s:.3f} s"
+            return p
+        self._schedule_bounds(theta_p, dt_s, roll)
+        if self.cfg.step_aligned_rates:
+            self._align_rates(theta_p)
+        # one-step-ahead prediction x_hat_{k|k-1} = F(x_hat_{k-1|k-1}, 0, Theta_{k-1}) (eq. 29)
+        if self._mhe is not None:
+            x_pred = mhe_predict(self._mhe, self.model, dt_s)
+        else:
+            assert self._ekf is not None
+            x_pred = self.model.f(self._ekf.x, np.zeros(N_U), self._theta_prev, dt_s)
+        p.dt_s, p.x_pred, p.y_pred = dt_s, x_pred, self.model.h(x_pred, theta_p)
+        return p
+
+    def _align_rates(self, theta_p: Vec) -> None:
+        """Give the previous node's Theta the IMU averages of the interval just ended.
+
+        Eq. 20 integrates F(x_{k-1}, Theta_{k-1}) over t_s; its q, A_x, A_z are the averages over
+        (t_{k-1}, t_k], which ``theta_p`` (Theta_k) carries. The output equations (eqs. 15-16)
+        do not use them, so node k-1's outputs are unchanged."""
+        if self._mhe is not None:
+            th = self._mhe.theta.copy()
+            th[self._mhe.n - 1, _IT_RATES] = theta_p[_IT_RATES]
+            self._mhe = dataclasses.replace(self._mhe, theta=th)
+        elif self._theta_prev is not None:
+            th_prev = self._theta_prev.copy()
+            th_prev[_IT_RATES] = theta_p[_IT_RATES]
+            self._theta_prev = th_prev
+
     def _theta(self, frame: Frame) -> tuple[Vec | None, str]:
         """Theta = [V_g, theta, q, A_x, A_z, z] (Wan2018 eq. 2) from the Frame."""
         if self._acc_n == 0:
@@ -350,6 +416,18 @@ class AirDataEstimator:
             )
         self._theta_prev = theta_p
         self._t_prev_us = t_us
+
+
+@dataclass(slots=True)
+class _Prepared:
+    """The part of one air-data step known before y_k (see :meth:`AirDataEstimator._prepare`)."""
+
+    frame: Frame
+    theta_p: Vec | None
+    reason: str = ""
+    dt_s: float = 0.0
+    x_pred: Vec | None = None
+    y_pred: Vec | None = None
 
 
 def _nanmean_or_none(v: Vec) -> float | None:

@@ -1,0 +1,89 @@
+"""The Wan2018 scheme's ordering in the pipeline: eq. 17 residuals of sample k are taken against
+the estimator's prediction *for* sample k (x_hat_{k|k-1}), not the one of sample k-1."""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "helpers"))
+import airdata_synth as synth  # noqa: E402
+
+from gcs_monitor.config import MonitorConfig  # noqa: E402
+from gcs_monitor.core.types import ChannelId  # noqa: E402
+from gcs_monitor.core.units import DEG2RAD  # noqa: E402
+from gcs_monitor.estimators.airdata import AirDataEstimator  # noqa: E402
+from gcs_monitor.pipeline import VehiclePipeline  # noqa: E402
+
+
+def _calm_doublet(duration_s: float = 30.0, doublet_deg: float = 4.0) -> synth.SynthRun:
+    """Calm air, a pitch doublet at 10 s: AoA moves at several deg/s."""
+    cfg = synth.SynthConfig(duration_s=duration_s, turb_sigma_mps=0.0, shear_x_per_s=0.0,
+                            doublet_deg=doublet_deg)
+    return synth.generate(cfg, np.random.default_rng(7))
+
+
+def test_set_reference_is_the_prediction_of_the_same_sample() -> None:
+    run = _calm_doublet()
+    p = VehiclePipeline(1, MonitorConfig(), airdata=AirDataEstimator(variant="cmhe"))
+    n_checked = 0
+    for fr in run.frames:
+        out = p.step(fr)
+        if not fr.air_new or not out.sets:
+            continue
+        e = next(e for e in out.estimates if e.name == "airdata_cmhe")
+        if "aoa_pred_rad" not in e.states or not e.residuals:
+            continue
+        aoa = next(s for s in out.sets if s.name == "aoa")
+        assert aoa.reference == e.states["aoa_pred_rad"][0]
+        assert e.residuals[ChannelId("aoa", 0)] == fr.aoa_rad[0] - aoa.reference
+        n_checked += 1
+    assert n_checked > 0.9 * len(run.t_air_s)
+
+
+def test_fault_free_aoa_residual_is_sensor_noise_through_a_pitch_transient() -> None:
+    """While alpha moves faster than 2 deg/s (an 8 deg doublet), a one-sample-stale reference
+    adds t_s alpha_dot to the residual (RMS 0.23 deg measured with it); the same-sample
+    prediction leaves the vane noise (sigma 0.1 deg; 0.11 deg measured)."""
+    run = _calm_doublet(doublet_deg=8.0)
+    rate = np.gradient(run.aoa_true_rad, 0.05)
+    p = VehiclePipeline(1, MonitorConfig(), airdata=AirDataEstimator(variant="cmhe"))
+    r_fast = []
+    j = -1
+    for fr in run.frames:
+        out = p.step(fr)
+        if not fr.air_new:
+            continue
+        j += 1
+        aoa = next((s for s in out.sets if s.name == "aoa"), None)
+        if aoa is None or not math.isfinite(aoa.reference) or fr.t_us < 5_000_000:
+            continue
+        if abs(rate[j]) > 2.0 * DEG2RAD:
+            r_fast.append(fr.aoa_rad[0] - aoa.reference)
+    r = np.asarray(r_fast)
+    assert r.size >= 50  # the transient is there
+    sigma = synth.SynthConfig().aoa_sigma_rad
+    assert np.sqrt(np.mean(r * r)) < 1.3 * sigma
+
+
+def test_predict_then_step_equals_step_on_every_frame() -> None:
+    """Calling predict() on every frame and step() on the air-data frames (the pipeline's
+    order) gives the same estimates as step() on every frame: each IMU sample counts once."""
+    run = _calm_doublet(12.0)
+    a, b = AirDataEstimator(variant="cmhe"), AirDataEstimator(variant="cmhe")
+    for fr in run.frames:
+        pa = a.predict(fr)
+        if fr.air_new:
+            ea = a.step(fr)
+            eb = b.step(fr)
+            assert ea.residuals == eb.residuals
+            assert ea.virtual == eb.virtual
+            if pa is not None:
+                assert pa[0] == ea.states["aoa_pred_rad"][0]
+                assert pa[1] == ea.states["cas_pred_mps"][0]
+        else:
+            assert pa is None
+            b.step(fr)
