@@ -240,7 +240,7 @@ class AirDataEstimator:
         if p.y_pred is None:  # start-up or gap
             self._start(frame.t_us, theta_p, y, mask)
             return Estimate(name=self.name, t_us=frame.t_us, reason=p.reason)
-        dt_s, x_pred, y_pred = p.dt_s, p.x_pred, p.y_pred
+        dt_s, y_pred = p.dt_s, p.y_pred
         residuals: dict[ChannelId, float] = {}
         for i, v in enumerate(frame.aoa_rad):
             if np.isfinite(v):
