@@ -97,9 +97,14 @@ def runaway_faults(rate_ktsps: float, t0_s: float = FIG45_T0_S) -> tuple[Any, ..
                             ("limit_mps", 200.0 * KT2MPS))) for i in range(3))
 
 
-def variant_config(variant: str, base: MonitorConfig | None = None) -> MonitorConfig:
-    """Air-data only (no IMU estimators: not part of these experiments)."""
+def variant_config(variant: str, base: MonitorConfig | None = None, *,
+                   lateral: bool = False) -> MonitorConfig:
+    """Air-data only (no IMU estimators: not part of these experiments), with Wan2018's
+    wings-level model (eqs. 12-15) unless ``lateral`` asks for our bank and sideslip terms,
+    whatever the monitor's default is: the reproductions use the paper's model."""
     cfg = base or MonitorConfig()
+    cfg = dataclasses.replace(cfg, airdata=dataclasses.replace(cfg.airdata,
+                                                               lateral_terms=lateral))
     return dataclasses.replace(cfg, estimators=EstimatorsConfig(imu_ts=False, imu_hosm=False,
                                                                 airdata=variant))
 
@@ -474,10 +479,7 @@ def run_campaign_wan2018(n_runs: int, n_cal: int, jobs: int, duration_s: tuple[f
     turbulence), then run the campaign (monitor + median vote). ``lateral`` adds bank and
     sideslip to the model (``[airdata] lateral_terms``; ours)."""
     t0 = time.perf_counter()
-    base = variant_config(variant)
-    if lateral:
-        base = dataclasses.replace(base, airdata=dataclasses.replace(base.airdata,
-                                                                     lateral_terms=True))
+    base = variant_config(variant, lateral=lateral)
     th, jmax = calibrate_campaign(n_cal, jobs, duration_s, base, progress=progress,
                                   schedule=schedule, n_calm=n_calm)
     cfg = with_thresholds(base, th["aoa"], th["cas"], th["aoa_per_turbulence"],

@@ -164,11 +164,15 @@ def test_threshold_grows_with_the_declared_turbulence(tmp_path):
 def test_lateral_terms_switch_reaches_the_estimator(tmp_path):
     from gcs_monitor.monitor import build_estimators
 
-    c = load_config(_write(tmp_path, "[airdata]\nlateral_terms = true\n"))
-    assert c.airdata.lateral_terms is True
+    c = load_config(_write(tmp_path, "[airdata]\nlateral_terms = false\n"))
+    assert c.airdata.lateral_terms is False  # Wan2018's wings-level model
     _, est = build_estimators(c)
-    assert est.cfg.lateral_terms is True
+    assert est.cfg.lateral_terms is False
     _, est_default = build_estimators(load_config(None))
-    assert est_default.cfg.lateral_terms is False  # Wan2018's wings-level model by default
+    assert est_default.cfg.lateral_terms is True  # the monitor's default: bank and sideslip
+    from gcs_monitor.evaluation.wan2018 import variant_config
+
+    assert variant_config("cmhe").airdata.lateral_terms is False  # the paper reproductions
+    assert variant_config("cmhe", lateral=True).airdata.lateral_terms is True
     with pytest.raises(ConfigError, match="must be true or false"):
         load_config(_write(tmp_path, "[airdata]\nlateral_terms = 1\n"))
