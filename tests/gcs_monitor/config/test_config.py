@@ -101,7 +101,8 @@ def test_shipped_wan2018_transport_config_loads():
     from pathlib import Path
 
     c = load_config(Path(__file__).resolve().parents[3] / "configs" / "wan2018_transport.toml")
-    assert c.fdi.aoa.threshold == pytest.approx(math.radians(1.364))
+    assert c.fdi.aoa.threshold == pytest.approx(math.radians(0.902))
+    assert c.airdata.lateral_terms is True  # calibrated with the default model
     assert c.fdi.cas.threshold > c.fdi.cas.threshold_per_turbulence == 0.0
     assert c.fdi.aoa.stuck_window_s == c.fdi.cas.no_data_window_s == 0.5
     assert c.estimators.airdata == "cmhe"
