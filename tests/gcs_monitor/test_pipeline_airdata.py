@@ -15,7 +15,7 @@ import airdata_synth as synth  # noqa: E402
 from gcs_monitor.config import MonitorConfig  # noqa: E402
 from gcs_monitor.core.types import ChannelId  # noqa: E402
 from gcs_monitor.core.units import DEG2RAD  # noqa: E402
-from gcs_monitor.estimators.airdata import AirDataEstimator  # noqa: E402
+from gcs_monitor.estimators.airdata import AirDataEstimator, AirDataEstimatorConfig  # noqa: E402
 from gcs_monitor.pipeline import VehiclePipeline  # noqa: E402
 
 
@@ -87,3 +87,30 @@ def test_predict_then_step_equals_step_on_every_frame() -> None:
         else:
             assert pa is None
             b.step(fr)
+
+
+def test_rates_averaged_over_the_step_predict_a_pitch_transient_better() -> None:
+    """Eq. 20 over (t_{k-1}, t_k] with the IMU mean of that interval (``step_aligned_rates``)
+    against the rates sampled at t_{k-1}: with noise-free vanes, the one-step AoA prediction
+    error while alpha moves faster than 2 deg/s (measured 0.022 against 0.081 deg)."""
+    cfg = synth.SynthConfig(duration_s=30.0, turb_sigma_mps=0.0, shear_x_per_s=0.0,
+                            doublet_deg=8.0, aoa_sigma_rad=0.0, cas_sigma_mps=0.0)
+    run = synth.generate(cfg, np.random.default_rng(7))
+    rate = np.gradient(run.aoa_true_rad, 0.05)
+    rms = {}
+    for aligned in (True, False):
+        est = AirDataEstimator(AirDataEstimatorConfig(step_aligned_rates=aligned), variant="cmhe")
+        err, j = [], -1
+        for fr in run.frames:
+            pred = est.predict(fr)
+            if not fr.air_new:
+                continue
+            j += 1
+            if pred is not None and abs(rate[j]) > 2.0 * DEG2RAD and fr.t_us > 5_000_000:
+                err.append(run.aoa_true_rad[j] - pred[0])
+            est.step(fr)
+        e = np.asarray(err)
+        assert e.size >= 50
+        rms[aligned] = float(np.sqrt(np.mean(e * e)))
+    assert rms[True] < 0.04 * DEG2RAD
+    assert rms[True] < 0.5 * rms[False]
