@@ -9,7 +9,11 @@ ours (for CasADi: the converged NLP against our one real-time iteration; for the
 of the CMHE: round-off). Targets: CMHE at least 10x faster than IPOPT, and no slower than
 sqpmethod + qrqp (median ratio <= 1).
 
-    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_mhe.py [--samples 600]
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_mhe.py [--samples 600] [--lateral]
+
+``--lateral`` runs the estimator as the monitor's default configuration does, with bank and
+sideslip in eqs. 12-15 (Theta of 8; the synthetic flight is wings level, so the terms' values
+are the paper's, but the kernel and the CasADi problem evaluate the general trigonometry).
 
 Wan2018 sec. V-C reports 5.8 ms per sample on the Airbus FCC (SAO implementation).
 """
@@ -32,7 +36,7 @@ import airdata_synth as synth  # noqa: E402
 
 from gcs_monitor.core import constants as c  # noqa: E402
 from gcs_monitor.core.units import KT2MPS  # noqa: E402
-from gcs_monitor.estimators.airdata import AirDataEstimator  # noqa: E402
+from gcs_monitor.estimators.airdata import AirDataEstimator, AirDataEstimatorConfig  # noqa: E402
 from gcs_monitor.filters.mhe import compiled_kernel  # noqa: E402
 
 log = logging.getLogger("bench_mhe")
@@ -40,13 +44,13 @@ PAPER_MS = 5.8
 
 
 def record_problems(
-    n_samples: int, *, compiled: bool = True
+    n_samples: int, *, compiled: bool = True, lateral: bool = False
 ) -> tuple[list[dict[str, np.ndarray]], np.ndarray, np.ndarray]:
     """Run the CMHE estimator, timing mhe_step; return horizon problems and our x_hat_{k|k}."""
     faults = tuple(synth.SensorFault("cas", i, 15.0, "runaway", -15.0 * KT2MPS) for i in range(3))
     dur = n_samples * 0.05 + 2.0
     run = synth.generate(synth.SynthConfig(duration_s=dur, faults=faults), np.random.default_rng(3))
-    est = AirDataEstimator(variant="cmhe")
+    est = AirDataEstimator(AirDataEstimatorConfig(lateral_terms=lateral), variant="cmhe")
     est.ip = replace(est.ip, compiled=compiled)
     probs: list[dict[str, np.ndarray]] = []
     times: list[float] = []
@@ -95,15 +99,20 @@ def build_casadi(est: AirDataEstimator, solver: str):  # type: ignore[no-untyped
     prior = ca.SX.sym("prior", nx)
     Y = ca.SX.sym("Y", 4, n)
     M = ca.SX.sym("M", 4, n)
-    TH = ca.SX.sym("TH", 6, n)
+    n_th = 8 if est.cfg.lateral_terms else 6  # Theta (+ [phi, beta]: models.airdata.lateral)
+    TH = ca.SX.sym("TH", n_th, n)
     DT = ca.SX.sym("DT", n - 1)
 
     wacc_on = est.model.params.wind_accel_in_alpha
 
+    def phi_beta(th):  # (0, 0): Wan2018's wings-level forms exactly
+        return (th[6], th[7]) if n_th == 8 else (0, 0)
+
     def f(x, u, th, dt):  # Wan2018 eq. 20 (+ the eq. 8 wind-acceleration term, as the model)
-        a = x[0]
-        fa = -th[3] * ca.sin(a) + th[4] * ca.cos(a) + g * ca.cos(a - th[1])
-        fv = th[3] * ca.cos(a) + th[4] * ca.sin(a) + g * ca.sin(a - th[1])
+        a, (phi, _) = x[0], phi_beta(th)
+        sa, ca_, st, ct = ca.sin(a), ca.cos(a), ca.sin(th[1]), ca.cos(th[1])
+        fa = -th[3] * sa + th[4] * ca_ + g * (ca_ * ct * ca.cos(phi) + sa * st)
+        fv = th[3] * ca_ + th[4] * sa + g * (sa * ct * ca.cos(phi) - ca_ * st)
         wacc = (u[2] * ca.sin(a - th[1]) - u[3] * ca.cos(a - th[1])) / th[0] if wacc_on else 0
         return x + dt * (ca.vertcat(fa / th[0] + th[2] + wacc, fv, 0, 0) + u)
 
@@ -114,7 +123,11 @@ def build_casadi(est: AirDataEstimator, solver: str):  # type: ignore[no-untyped
         pbar = (1 + c.ISA_LAPSE_KPM * th[5] / c.ISA_T0_K) ** gas_exp
         yy = ((1 + vt**2 / (k_cas * t_k)) ** 3.5 - 1) * pbar + 1
         vc = ca.sqrt(k_cas * c.ISA_T0_K) * ca.sqrt(yy ** (1 / 3.5) - 1)
-        return ca.vertcat(x[1], -th[0] * ca.sin(d) - x[3], x[0], vc)
+        phi, beta = phi_beta(th)
+        a, cb = x[0], ca.cos(beta)
+        sg = (ca.cos(a) * cb * ca.sin(th[1])
+              - (ca.sin(phi) * ca.sin(beta) + ca.cos(phi) * ca.sin(a) * cb) * ca.cos(th[1]))
+        return ca.vertcat(x[1], th[0] * sg - x[3], x[0], vc)
 
     w = est.weights
     dxp = X[:, 0] - prior
@@ -195,14 +208,16 @@ def run_casadi(
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--samples", type=int, default=600)
+    ap.add_argument("--lateral", action="store_true",
+                    help="bank and sideslip in eqs. 12-15, as the monitor's default")
     args = ap.parse_args()
     logging.basicConfig(level=logging.INFO, format="%(message)s")
-    est = AirDataEstimator(variant="cmhe")
-    probs, t_ours, x_ours = record_problems(args.samples)
+    est = AirDataEstimator(AirDataEstimatorConfig(lateral_terms=args.lateral), variant="cmhe")
+    probs, t_ours, x_ours = record_problems(args.samples, lateral=args.lateral)
     kern = "numba" if compiled_kernel() is not None else "numpy"
     rows = [(f"CMHE RTI ({kern}) mhe_step", t_ours, None)]
     if kern == "numba":
-        _, t_ref, x_ref = record_problems(args.samples, compiled=False)
+        _, t_ref, x_ref = record_problems(args.samples, compiled=False, lateral=args.lateral)
         rows.append(("CMHE RTI (numpy reference) mhe_step", t_ref, x_ref))
     for solver in ("ipopt", "sqpmethod+qrqp"):
         t, xs = run_casadi(est, probs, "ipopt" if solver == "ipopt" else "sqp")
