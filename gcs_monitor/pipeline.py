@@ -262,13 +262,14 @@ class VehiclePipeline:
                     ev = mon.update(t_us, value, judged)
                     if ev:
                         out.events += ev
+        # eq. 17's reference alpha_hat_{k|k-1}, V_c_hat_{k|k-1}, predicted before y_k is seen;
+        # on every frame, so that each IMU sample enters Theta's averages (None without air data)
+        pred = self.airdata.predict(frame) if self.airdata is not None else None
         if frame.air_new:
-            out.sets = self._air_step(frame, out)
+            out.sets = self._air_step(frame, out, pred)
             self._last_sets = out.sets
-        elif self.airdata is not None:
-            self.airdata.predict(frame)  # no air data: the IMU sample enters Theta's averages
-            if self._airdata_estimate is not None:
-                out.estimates.append(self._airdata_estimate)
+        elif self._airdata_estimate is not None:
+            out.estimates.append(self._airdata_estimate)
         for ev in out.events:
             if ev.state.value == "cleared":
                 self.active.pop(ev.channel, None)
@@ -293,7 +294,8 @@ class VehiclePipeline:
             self._est_event[e.name] = ev
         return ev
 
-    def _air_step(self, frame: Frame, out: PipelineStep) -> list[SetStatus]:
+    def _air_step(self, frame: Frame, out: PipelineStep,
+                  pred: tuple[float, float] | None) -> list[SetStatus]:
         # Python floats and lists: numpy per-call overhead dominates for three instances
         stale = self.cfg.telemetry.stale_after_s
         n_a, n_c = self.aoa_set.n, self.cas_set.n
@@ -303,9 +305,7 @@ class VehiclePipeline:
                      for x, a in zip(aoa, _floats(frame.aoa_age_s))]
         cas_valid = [math.isfinite(x) and a < stale
                      for x, a in zip(cas, _floats(frame.cas_age_s))]
-        # eq. 17: residuals of sample k against alpha_hat_{k|k-1}, V_c_hat_{k|k-1}, which the
-        # estimator predicts before it sees y_k (its step below then uses the eq. 19 fusion)
-        pred = self.airdata.predict(frame) if self.airdata is not None else None
+        # eq. 17 against the prediction for this sample; the MHE step below uses the eq. 19 fusion
         aoa_ref = pred[0] if pred is not None and math.isfinite(pred[0]) else None
         cas_ref = pred[1] if pred is not None and math.isfinite(pred[1]) else None
         s_aoa, ev_a = self.aoa_set.step(frame.t_us, aoa, aoa_valid, aoa_ref)

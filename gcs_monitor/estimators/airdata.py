@@ -335,7 +335,7 @@ class AirDataEstimator:
         else:
             assert self._ekf is not None
             x_pred = self.model.f(self._ekf.x, np.zeros(N_U), self._theta_prev, dt_s)
-        p.dt_s, p.x_pred, p.y_pred = dt_s, x_pred, self.model.h(x_pred, theta_p)
+        p.dt_s, p.y_pred = dt_s, self.model.h(x_pred, theta_p)
         return p
 
     def _align_rates(self, theta_p: Vec) -> None:
@@ -365,11 +365,10 @@ class AirDataEstimator:
             return None, "baro altitude missing"
         vg = self._ground_speed(frame)
         mean = self._acc_sum / self._acc_n
-        if self.cfg.lateral_terms:
-            beta = frame.ssa_rad if math.isfinite(frame.ssa_rad) else 0.0
-            return np.array([vg, frame.euler_rad[1], mean[2], mean[0], mean[1], frame.baro_alt_m,
-                             frame.euler_rad[0], beta]), ""
-        return np.array([vg, frame.euler_rad[1], mean[2], mean[0], mean[1], frame.baro_alt_m]), ""
+        th = [vg, frame.euler_rad[1], mean[2], mean[0], mean[1], frame.baro_alt_m]
+        if self.cfg.lateral_terms:  # + [phi, beta] (models.airdata.lateral)
+            th += [frame.euler_rad[0], frame.ssa_rad if math.isfinite(frame.ssa_rad) else 0.0]
+        return np.array(th), ""
 
     @staticmethod
     def _ground_speed(frame: Frame) -> float:
@@ -426,8 +425,7 @@ class _Prepared:
     theta_p: Vec | None
     reason: str = ""
     dt_s: float = 0.0
-    x_pred: Vec | None = None
-    y_pred: Vec | None = None
+    y_pred: Vec | None = None  # h(x_hat_{k|k-1}, Theta_k); None at start-up or after a gap
 
 
 def _nanmean_or_none(v: Vec) -> float | None:
