@@ -370,10 +370,15 @@ FULL_DURATION_S = (60.0, 700.0)  # Wan2018 sec. VI-B: 60-700 s
 
 
 def campaign_scenarios(n_runs: int, seed: int, duration_s: tuple[float, float],
-                       fault_free_only: bool = False) -> list[Any]:
+                       fault_free_only: bool = False,
+                       nrz_ratio: float | None = None) -> list[Any]:
+    """The seeded campaign runs; ``nrz_ratio`` overrides Table II's non-return-to-zero reading
+    (default ``f = 0.1 x``). It draws no random number, so every run stays the same otherwise."""
     from sim_vehicle.wan2018_gen import Wan2018Ranges, generate
 
     r = Wan2018Ranges(duration_s=duration_s)
+    if nrz_ratio is not None:
+        r = dataclasses.replace(r, nrz_ratio=nrz_ratio)
     if fault_free_only:
         r = dataclasses.replace(r, fault_free_fraction=1.0)
     return generate(n_runs, seed, ranges=r)
@@ -473,18 +478,20 @@ def table3(stats: Sequence[tuple[bool, dict[str, tuple[float, float]]]]) -> dict
 def run_campaign_wan2018(n_runs: int, n_cal: int, jobs: int, duration_s: tuple[float, float],
                          *, variant: str = "cmhe", seed: int = CAMPAIGN_SEED,
                          progress: bool = True, schedule: bool = False,
-                         n_calm: int = SCHEDULE_CALM_RUNS, lateral: bool = False
-                         ) -> dict[str, Any]:
+                         n_calm: int = SCHEDULE_CALM_RUNS, lateral: bool = False,
+                         nrz_ratio: float | None = None) -> dict[str, Any]:
     """Calibrate J_th on fault-free seeds (one J_th per set, or scheduled on the declared
     turbulence), then run the campaign (monitor + median vote). ``lateral`` adds bank and
-    sideslip to the model (``[airdata] lateral_terms``; ours)."""
+    sideslip to the model (``[airdata] lateral_terms``; ours); ``nrz_ratio`` reads Table II's
+    non-return to zero differently (:func:`campaign_scenarios`; calibration is fault-free, so
+    the thresholds do not change)."""
     t0 = time.perf_counter()
     base = variant_config(variant, lateral=lateral)
     th, jmax = calibrate_campaign(n_cal, jobs, duration_s, base, progress=progress,
                                   schedule=schedule, n_calm=n_calm)
     cfg = with_thresholds(base, th["aoa"], th["cas"], th["aoa_per_turbulence"],
                           th["cas_per_turbulence"])
-    scs = campaign_scenarios(n_runs, seed, duration_s)
+    scs = campaign_scenarios(n_runs, seed, duration_s, nrz_ratio=nrz_ratio)
     res = _pool(_campaign_run, [(i, sc, cfg) for i, sc in enumerate(scs)], jobs, "campaign",
                 progress)
     recs = [r for r, _ in res]
@@ -496,7 +503,7 @@ def run_campaign_wan2018(n_runs: int, n_cal: int, jobs: int, duration_s: tuple[f
         c = sc.description.split("category ")[1].split(",")[0]
         cats[c] = cats.get(c, 0) + 1
     return {"tables": tables, "table3": t3, "thresholds": th, "jmax_cal": jmax, "records": recs,
-            "lateral": lateral,
+            "lateral": lateral, "nrz_ratio": nrz_ratio,
             "err_stats": [st for _, st in res],
             "categories": cats, "sim_s": sum(sc.duration_s for sc in scs), "scenarios": scs,
             "wall_s": time.perf_counter() - t0, "variant": variant, "cfg": cfg}
@@ -519,7 +526,11 @@ def campaign_markdown(res: dict[str, Any], n_runs: int, n_cal: int,
         f"{duration_s[0]:g}-{duration_s[1]:g} s, {res['sim_s']:.0f} simulated s in "
         f"{res['wall_s']:.0f} s wall. Estimator: {res['variant'].upper()}"
         + (" with bank and sideslip in eqs. 12-15 (`lateral_terms`)." if res.get("lateral")
-           else " (Wan2018's wings-level model)."),
+           else " (Wan2018's wings-level model).")
+        + ("" if res.get("nrz_ratio") is None else
+           f" Non-return to zero injected as f = {res['nrz_ratio']:g} x (the output falls to "
+           f"{100.0 * (1.0 + res['nrz_ratio']):.0f} % of the value), not Table II's literal "
+           f"f = 0.1 x."),
         (f"Thresholds from {n_cal} fault-free runs of seed {CALIBRATION_SEED} and "
          f"{res['jmax_cal'].get('calm_runs_extra', 0.0):.0f} non-turbulent ones of seed "
          f"{CALIBRATION_SEED + 1} (60-200 s), run open loop (no "
@@ -754,7 +765,8 @@ def wan2018_calibration(out_dir: Path, jobs: int = 1, quick: bool = False) -> st
 
 
 def wan2018_campaign(out_dir: Path, jobs: int = 1, quick: bool = False,
-                     schedule: bool = False, lateral: bool = False) -> str:
+                     schedule: bool = False, lateral: bool = False,
+                     nrz_ratio: float | None = None) -> str:
     """Wan2018 sec. VI-B: 249 runs (140 fault-free), Tables III and IV, median-vote baseline."""
     out = Path(out_dir)
     if quick:
@@ -762,7 +774,8 @@ def wan2018_campaign(out_dir: Path, jobs: int = 1, quick: bool = False,
     else:
         n, n_cal, dur = 249, 40, FULL_DURATION_S
     res = run_campaign_wan2018(n, n_cal, jobs, dur, schedule=schedule,
-                               n_calm=12 if quick else SCHEDULE_CALM_RUNS, lateral=lateral)
+                               n_calm=12 if quick else SCHEDULE_CALM_RUNS, lateral=lateral,
+                               nrz_ratio=nrz_ratio)
     _campaign_files(res, out)
     md = campaign_markdown(res, n, n_cal, dur)
     (out / "wan2018_campaign.md").write_text(md + "\n")
@@ -786,6 +799,17 @@ def wan2018_campaign_lateral_only(out_dir: Path, jobs: int = 1, quick: bool = Fa
     return wan2018_campaign(out_dir, jobs, quick, schedule=False, lateral=True)
 
 
+NRZ_OUTPUT_RATIO = -0.9  # "10 % x current value" read as the output: y = 0.1 x, f = -0.9 x
+
+
+def wan2018_campaign_nrz_output(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
+    """The monitor's default model (lateral terms, one J_th) on the same runs, with Table II's
+    non-return to zero read as the sensor *output* falling to 10 % of the value (``f = -0.9 x``)
+    instead of our literal ``f = 0.1 x``: what the ambiguity costs (docs/papers-notes.md)."""
+    return wan2018_campaign(out_dir, jobs, quick, schedule=False, lateral=True,
+                            nrz_ratio=NRZ_OUTPUT_RATIO)
+
+
 # ------------------------------------------------------------------------------------------------
 # registry
 # ------------------------------------------------------------------------------------------------
@@ -800,6 +824,7 @@ def experiments() -> dict[str, Callable[[Path, int, bool], str]]:
         "wan2018_campaign_scheduled": wan2018_campaign_scheduled,
         "wan2018_campaign_lateral": wan2018_campaign_lateral,
         "wan2018_campaign_lateral_only": wan2018_campaign_lateral_only,
+        "wan2018_campaign_nrz_output": wan2018_campaign_nrz_output,
         "wan2018_onspeed": wan2018_onspeed,
         "wan2018_calibration": wan2018_calibration,
     }

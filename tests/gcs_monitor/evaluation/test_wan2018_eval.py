@@ -80,8 +80,27 @@ def test_table3_aggregates_max_and_mean() -> None:
 
 
 def test_experiments_registered() -> None:
-    assert {"wan2018_fig45", "wan2018_fig3", "wan2018_campaign",
+    assert {"wan2018_fig45", "wan2018_fig3", "wan2018_campaign", "wan2018_campaign_nrz_output",
             "wan2018_onspeed", "wan2018_calibration"} <= set(wan2018.experiments())
+
+
+def test_nrz_reading_changes_only_the_nrz_faults() -> None:
+    """The alternative NRZ reading draws no random number: the same runs, the same faults,
+    only the NRZ ratio differs (so its campaign compares like with like)."""
+    a = wan2018.campaign_scenarios(40, 0, (60.0, 80.0))
+    b = wan2018.campaign_scenarios(40, 0, (60.0, 80.0), nrz_ratio=wan2018.NRZ_OUTPUT_RATIO)
+    n_nrz = 0
+    for sa, sb in zip(a, b, strict=True):
+        assert (sa.duration_s, sa.manoeuvre, sa.wind) == (sb.duration_s, sb.manoeuvre, sb.wind)
+        for fa, fb in zip(sa.faults, sb.faults, strict=True):
+            assert (fa.channel, fa.kind, fa.t_start_s) == (fb.channel, fb.kind, fb.t_start_s)
+            if fa.kind == "nrz":
+                n_nrz += 1
+                assert dict(fa.params)["ratio"] == pytest.approx(0.1)
+                assert dict(fb.params)["ratio"] == pytest.approx(-0.9)
+            else:
+                assert fa.params == fb.params
+    assert n_nrz > 0
 
 
 @pytest.mark.slow
