@@ -261,10 +261,16 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         print(res.markdown)
         return 0
     experiments = registry.experiments()
+    if args.list:
+        width = max(map(len, experiments))
+        for name in sorted(experiments):
+            print(f"{name:<{width}}  {registry.summary(experiments[name])}")
+        return 0
     if not args.experiment or args.experiment not in experiments:
         names = ", ".join(sorted(experiments))
-        print(f"choose --preset-set NAME or --experiment NAME; experiments: {names}",
-              file=sys.stderr)
+        what = f"unknown experiment {args.experiment!r}; " if args.experiment else ""
+        print(f"{what}choose --preset-set NAME or --experiment NAME (--list describes them); "
+              f"experiments: {names}", file=sys.stderr)
         return 2
     print(experiments[args.experiment](args.out, args.jobs, args.quick))
     return 0
@@ -300,12 +306,14 @@ def build_parser() -> argparse.ArgumentParser:
     s.set_defaults(func=cmd_demo)
     s = sub.add_parser("evaluate", help="campaigns and paper experiments (tables + plots)")
     s.add_argument("--preset-set", help="campaign preset set (triplex, wan2018, fault_free)")
-    s.add_argument("--experiment", help="a named paper experiment")
-    s.add_argument("--runs", type=int, default=100)
-    s.add_argument("--jobs", type=int, default=2)
-    s.add_argument("--seed", type=int, default=0)
+    s.add_argument("--experiment", help="a named paper experiment (see --list)")
+    s.add_argument("--list", action="store_true", help="list the experiments and stop")
+    s.add_argument("--runs", type=int, default=100, help="runs of a --preset-set campaign")
+    s.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")
+    s.add_argument("--seed", type=int, default=0, help="seed of a --preset-set campaign")
     s.add_argument("--quick", action="store_true", help="a small, fast version")
-    s.add_argument("--out", type=Path, default=Path("eval_out"))
+    s.add_argument("--out", type=Path, default=Path("eval_out"),
+                   help="folder for tables, CSVs and plots (default eval_out)")
     s.add_argument("--config", type=Path, help="monitor TOML for --preset-set campaigns")
     s.set_defaults(func=cmd_evaluate)
     s = sub.add_parser("convert", help="convert real flight data (Zipline/OnSpeed/ALFA CSV) to .tlog")

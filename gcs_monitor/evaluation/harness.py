@@ -495,6 +495,8 @@ def experiments() -> dict[str, Callable[[Path, int, bool], str]]:
     """Named experiments for ``gcs-monitor evaluate --experiment`` (registry hook)."""
 
     def triplex(out: Path, jobs: int, quick: bool) -> str:
+        """The triplex preset campaign twice: with the default air-data estimator (CMHE
+        reference) and with consensus alone (no estimator); FAR, MDR, FIR and delays."""
         import dataclasses
 
         from gcs_monitor.config import EstimatorsConfig

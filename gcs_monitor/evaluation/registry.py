@@ -7,6 +7,7 @@ evaluation needs ground truth by definition. Nothing else in gcs_monitor imports
 from __future__ import annotations
 
 import importlib
+import re
 from collections.abc import Callable
 from pathlib import Path
 
@@ -29,3 +30,13 @@ def experiments() -> dict[str, Experiment]:
         if fn is not None:
             out.update(fn())
     return out
+
+
+def summary(fn: Experiment, width: int = 100) -> str:
+    """An experiment's docstring, first paragraph, on one line of at most ``width`` characters
+    (reST roles dropped)."""
+    doc = (fn.__doc__ or "").strip().split("\n\n")[0]
+    text = re.sub(r":\w+:`([^`]*)`", r"\1", " ".join(doc.split())).replace("``", "`")
+    if len(text) <= width:
+        return text
+    return text[: width - 1].rsplit(" ", 1)[0] + " ..."

@@ -139,6 +139,8 @@ def sensor_noise(seconds: float = 60.0) -> str:
 
 
 def sim_physics(out_dir: Path, jobs: int, quick: bool) -> str:
+    """Checks of the simulator itself: trim hold, Dryden turbulence PSD, kinematic consistency
+    with Lu2016 eq. 11 and the sensor noise levels."""
     parts = [
         "### Trim hold (calm air, level)\n\n" + trim_hold(30.0 if quick else 120.0),
         "### Dryden turbulence PSD\n\n" + dryden_psd_check(0.25 if quick else 2.0),

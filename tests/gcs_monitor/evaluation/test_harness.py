@@ -173,3 +173,30 @@ def test_declared_weather_is_the_scenario_forecast_rounded_up() -> None:
     assert a.shear_rate_mps2 == pytest.approx(math.pi * 20.0 * KT2MPS / SHEAR_DURATION_S)
     calm = declared_weather(dataclasses.replace(sc, wind=dataclasses.replace(w, kind="calm")))
     assert calm.wind_mps == calm.shear_mps == calm.turbulence_sigma_mps == 0.0
+
+
+def test_evaluate_list_describes_every_experiment(capsys: pytest.CaptureFixture[str]) -> None:
+    from gcs_monitor.cli import main
+    from gcs_monitor.evaluation import registry
+
+    assert main(["evaluate", "--list"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    names = sorted(registry.experiments())
+    assert [ln.split()[0] for ln in lines] == names
+    assert all(len(ln.split(maxsplit=1)) == 2 for ln in lines)  # each has a description
+    assert main(["evaluate", "--experiment", "no_such_experiment"]) == 2
+    assert "unknown experiment 'no_such_experiment'" in capsys.readouterr().err
+
+
+def test_registry_summary_is_one_line() -> None:
+    from gcs_monitor.evaluation.registry import summary
+
+    def exp(out: object, jobs: int, quick: bool) -> str:
+        """Uses :func:`thing` and ``code``, over
+        two lines.
+
+        Second paragraph, not shown."""
+        return ""
+
+    assert summary(exp) == "Uses thing and `code`, over two lines."  # type: ignore[arg-type]
+    assert summary(exp, width=20).endswith(" ...") and len(summary(exp, width=20)) <= 24  # type: ignore[arg-type]
