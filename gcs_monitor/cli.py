@@ -6,7 +6,6 @@ Argument parsing and printing only; the work is done by the library modules.
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import math
 import sys

@@ -67,14 +67,13 @@ def markdown_table(header: list[str], rows: list[list[str]]) -> str:
 
 
 def run_demo(out: Path, *, preset: str = "demo_airdata_faults") -> int:
-    from sim_vehicle.run import run_scenario
-    from sim_vehicle.scenario import load_scenario
-
     from gcs_monitor.config import MonitorConfig
     from gcs_monitor.link.transports import TlogSource
     from gcs_monitor.monitor import Monitor
     from gcs_monitor.sinks.journal import AlarmJournal
     from gcs_monitor.sinks.rerun_sink import RerunSink
+    from sim_vehicle.run import run_scenario
+    from sim_vehicle.scenario import load_scenario
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)

@@ -31,9 +31,9 @@ GCS_SYSIDS = frozenset({255})  # ground stations: never monitored as vehicles
 
 def wind_envelope(cfg: MonitorConfig) -> Any:
     """The declared weather of ``cfg.airdata`` as the model's WindEnvelope (Wan2018 eq. 21b)."""
-    from gcs_monitor.models.airdata import WindEnvelope
-
     import dataclasses
+
+    from gcs_monitor.models.airdata import WindEnvelope
 
     a = cfg.airdata  # AirDataConfig carries every WindEnvelope field under the same name
     return WindEnvelope(**{f.name: getattr(a, f.name) for f in dataclasses.fields(WindEnvelope)})

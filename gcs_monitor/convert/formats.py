@@ -26,6 +26,7 @@ from __future__ import annotations
 import csv
 import math
 from dataclasses import dataclass, field
+from datetime import UTC
 from pathlib import Path
 
 import numpy as np
@@ -165,10 +166,10 @@ def read_onspeed(path: Path) -> Flight:
 
 
 def _parse_ros_time(s: str) -> float:
-    from datetime import datetime, timezone
+    from datetime import datetime
 
     return datetime.strptime(s.strip(), "%Y-%m-%d %H:%M:%S.%f").replace(
-        tzinfo=timezone.utc).timestamp()
+        tzinfo=UTC).timestamp()
 
 
 def read_alfa(path: Path) -> Flight:

@@ -14,14 +14,13 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from gcs_monitor.core.atmosphere import tas_from_cas
+from gcs_monitor.core.atmosphere import gravity_mps2, tas_from_cas
 from gcs_monitor.core.types import ChannelId, Mat, Vec
 from gcs_monitor.estimators.base import Estimate
-from gcs_monitor.core.atmosphere import gravity_mps2
 from gcs_monitor.estimators.gating import (
+    SQRT6,
     GateConfig,
     GateDecision,
-    SQRT6,
     MeasurementStepGate,
     intra_sample_excess_var,
     step_bound,

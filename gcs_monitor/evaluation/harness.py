@@ -43,8 +43,8 @@ from typing import Any
 import numpy as np
 
 from gcs_monitor.config import AirDataConfig, MonitorConfig, scheduled_threshold
-from gcs_monitor.core.units import KT2MPS
 from gcs_monitor.core.types import ChannelId
+from gcs_monitor.core.units import KT2MPS
 from gcs_monitor.fdi.baselines import MedianVoteMonitor, MedianVoteParams, fixed_threshold_monitor
 from gcs_monitor.fdi.events import AlarmEvent, AlarmKind, AlarmState
 from gcs_monitor.fdi.metrics import MetricsRow, RunOutcome, evaluate_run, metrics_table

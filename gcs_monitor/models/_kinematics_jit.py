@@ -74,7 +74,7 @@ def jacobians(x, u, lat_rad, alt_m, F, G):
     See ``kinematics._gs_km_jac_x_rows`` and ``kinematics._gs_km_jac_u_rows``.
     """
     un, ue, ud, phi, th, psi = x[0], x[1], x[2], x[3], x[4], x[5]
-    ax, ay, az, p, q, r = u[0], u[1], u[2], u[3], u[4], u[5]
+    ax, ay, az, q, r = u[0], u[1], u[2], u[4], u[5]  # p does not enter F or G
     sph, cph = math.sin(phi), math.cos(phi)
     sth, cth = math.sin(th), math.cos(th)
     sps, cps = math.sin(psi), math.cos(psi)

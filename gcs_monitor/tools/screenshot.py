@@ -26,8 +26,8 @@ import logging
 import math
 import os
 import shutil
-import socket
 import signal
+import socket
 import subprocess
 import sys
 import tempfile

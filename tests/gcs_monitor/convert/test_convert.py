@@ -9,7 +9,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gcs_monitor.convert.formats import ConvertError, detect_format, read_alfa, read_onspeed, read_zipline
+from gcs_monitor.convert.formats import (
+    ConvertError,
+    detect_format,
+    read_alfa,
+    read_onspeed,
+    read_zipline,
+)
 from gcs_monitor.convert.writer import convert_file, lu2016_table2_injector
 from gcs_monitor.core.frames import dcm_ned_frd
 

@@ -13,9 +13,15 @@ import pytest
 
 from gcs_monitor.core.types import ChannelId
 from gcs_monitor.fdi.baselines import MedianVoteMonitor, MedianVoteParams, fixed_threshold_monitor
-from gcs_monitor.fdi.events import SET_INSTANCE, AlarmEvent, AlarmKind, AlarmState, FaultType
 from gcs_monitor.fdi.confirmation import ConfirmationParams
-from gcs_monitor.fdi.events import ChannelStatus
+from gcs_monitor.fdi.events import (
+    SET_INSTANCE,
+    AlarmEvent,
+    AlarmKind,
+    AlarmState,
+    ChannelStatus,
+    FaultType,
+)
 from gcs_monitor.fdi.monitor import (
     ChannelMonitor,
     ChannelMonitorParams,

@@ -12,6 +12,7 @@ from gcs_monitor.core.constants import GRAVITY_STD_MPS2
 from gcs_monitor.models.airdata import (
     AirDataModel,
     AirDataModelParams,
+    WindEnvelope,
     airdata_derivative,
     airdata_f,
     airdata_f_jac_u,
@@ -20,7 +21,6 @@ from gcs_monitor.models.airdata import (
     airdata_h_jac_x,
     airdata_initial_state,
     cas_from_tas_with_derivative,
-    WindEnvelope,
     compiled_kernels,
     envelope_bounds,
 )

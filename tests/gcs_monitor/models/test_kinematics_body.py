@@ -21,7 +21,7 @@ from gcs_monitor.models.kinematics_body import (
     fault_input_matrix,
     own_drift_gain,
 )
-from tests.helpers.imu_synth_body import turn_truth_at, truth_at
+from tests.helpers.imu_synth_body import truth_at, turn_truth_at
 
 G = 9.81
 
