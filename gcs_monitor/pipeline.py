@@ -124,6 +124,7 @@ def set_params(name: str, cfg: SetConfig, dt_s: float) -> SetMonitorParams:
         stuck_n=round(cfg.stuck_window_s / dt_s) if cfg.stuck_window_s > 0.0 else 0,
         no_data_n=max(1, round(cfg.no_data_window_s / dt_s)) if cfg.no_data_window_s > 0.0
         else 0,
+        restart_peers=cfg.restart_peers,
     )
 
 

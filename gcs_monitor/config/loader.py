@@ -51,6 +51,9 @@ class SetConfig:
     # isolated (fault type no_data); 0 turns it off (AoA and CAS sets). It counts after the
     # telemetry's stale_after_s has made the instance invalid.
     no_data_window_s: float = 0.5
+    # restart the healthy peers' residual windows when an instance is isolated (ours; see
+    # gcs_monitor.fdi.monitor.SetMonitorParams.restart_peers)
+    restart_peers: bool = False
 
 
 def scheduled_threshold(cfg: SetConfig, turbulence_sigma_mps: float) -> float:
@@ -281,7 +284,9 @@ def _set_config(name: str, data: dict[str, Any], src: str) -> SetConfig:
                     stuck_window_s=default.stuck_window_s if partial.stuck_window_s is None
                     else partial.stuck_window_s,
                     no_data_window_s=default.no_data_window_s
-                    if partial.no_data_window_s is None else partial.no_data_window_s)
+                    if partial.no_data_window_s is None else partial.no_data_window_s,
+                    restart_peers=default.restart_peers if partial.restart_peers is None
+                    else partial.restart_peers)
     if cfg.no_data_window_s < 0.0:
         raise ConfigError(f"{src}: 'fdi.{name}.no_data_window_s' must be 0 (off) or positive, "
                           f"got {cfg.no_data_window_s}")
@@ -303,6 +308,7 @@ class _SetPartial:
     latch: bool | None = None
     stuck_window_s: float | None = None
     no_data_window_s: float | None = None
+    restart_peers: bool | None = None
 
 
 def load_config(path: Path | None = None) -> MonitorConfig:

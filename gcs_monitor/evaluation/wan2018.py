@@ -98,13 +98,18 @@ def runaway_faults(rate_ktsps: float, t0_s: float = FIG45_T0_S) -> tuple[Any, ..
 
 
 def variant_config(variant: str, base: MonitorConfig | None = None, *,
-                   lateral: bool = False) -> MonitorConfig:
+                   lateral: bool = False, restart_peers: bool = False) -> MonitorConfig:
     """Air-data only (no IMU estimators: not part of these experiments), with Wan2018's
     wings-level model (eqs. 12-15) unless ``lateral`` asks for our bank and sideslip terms,
-    whatever the monitor's default is: the reproductions use the paper's model."""
+    and Wan2018's per-instance windows unless ``restart_peers`` asks for our restart of the
+    peers' windows on an isolation, whatever the monitor's defaults are: the reproductions use
+    the paper's scheme."""
     cfg = base or MonitorConfig()
-    cfg = dataclasses.replace(cfg, airdata=dataclasses.replace(cfg.airdata,
-                                                               lateral_terms=lateral))
+    cfg = dataclasses.replace(
+        cfg, airdata=dataclasses.replace(cfg.airdata, lateral_terms=lateral),
+        fdi=dataclasses.replace(
+            cfg.fdi, aoa=dataclasses.replace(cfg.fdi.aoa, restart_peers=restart_peers),
+            cas=dataclasses.replace(cfg.fdi.cas, restart_peers=restart_peers)))
     return dataclasses.replace(cfg, estimators=EstimatorsConfig(imu_ts=False, imu_hosm=False,
                                                                 airdata=variant))
 
@@ -479,14 +484,17 @@ def run_campaign_wan2018(n_runs: int, n_cal: int, jobs: int, duration_s: tuple[f
                          *, variant: str = "cmhe", seed: int = CAMPAIGN_SEED,
                          progress: bool = True, schedule: bool = False,
                          n_calm: int = SCHEDULE_CALM_RUNS, lateral: bool = False,
-                         nrz_ratio: float | None = None) -> dict[str, Any]:
+                         nrz_ratio: float | None = None, restart_peers: bool = False
+                         ) -> dict[str, Any]:
     """Calibrate J_th on fault-free seeds (one J_th per set, or scheduled on the declared
     turbulence), then run the campaign (monitor + median vote). ``lateral`` adds bank and
     sideslip to the model (``[airdata] lateral_terms``; ours); ``nrz_ratio`` reads Table II's
     non-return to zero differently (:func:`campaign_scenarios`; calibration is fault-free, so
-    the thresholds do not change)."""
+    the thresholds do not change); ``restart_peers`` restarts the peers' windows on an
+    isolation (``[fdi.*] restart_peers``; ours; calibration is open loop, so it does not
+    change the thresholds either)."""
     t0 = time.perf_counter()
-    base = variant_config(variant, lateral=lateral)
+    base = variant_config(variant, lateral=lateral, restart_peers=restart_peers)
     th, jmax = calibrate_campaign(n_cal, jobs, duration_s, base, progress=progress,
                                   schedule=schedule, n_calm=n_calm)
     cfg = with_thresholds(base, th["aoa"], th["cas"], th["aoa_per_turbulence"],
@@ -503,7 +511,7 @@ def run_campaign_wan2018(n_runs: int, n_cal: int, jobs: int, duration_s: tuple[f
         c = sc.description.split("category ")[1].split(",")[0]
         cats[c] = cats.get(c, 0) + 1
     return {"tables": tables, "table3": t3, "thresholds": th, "jmax_cal": jmax, "records": recs,
-            "lateral": lateral, "nrz_ratio": nrz_ratio,
+            "lateral": lateral, "nrz_ratio": nrz_ratio, "restart_peers": restart_peers,
             "err_stats": [st for _, st in res],
             "categories": cats, "sim_s": sum(sc.duration_s for sc in scs), "scenarios": scs,
             "wall_s": time.perf_counter() - t0, "variant": variant, "cfg": cfg}
@@ -530,7 +538,9 @@ def campaign_markdown(res: dict[str, Any], n_runs: int, n_cal: int,
         + ("" if res.get("nrz_ratio") is None else
            f" Non-return to zero injected as f = {res['nrz_ratio']:g} x (the output falls to "
            f"{100.0 * (1.0 + res['nrz_ratio']):.0f} % of the value), not Table II's literal "
-           f"f = 0.1 x."),
+           f"f = 0.1 x.")
+        + (" The healthy peers' windows restart when an instance is isolated "
+           "(`restart_peers`)." if res.get("restart_peers") else ""),
         (f"Thresholds from {n_cal} fault-free runs of seed {CALIBRATION_SEED} and "
          f"{res['jmax_cal'].get('calm_runs_extra', 0.0):.0f} non-turbulent ones of seed "
          f"{CALIBRATION_SEED + 1} (60-200 s), run open loop (no "
@@ -766,7 +776,7 @@ def wan2018_calibration(out_dir: Path, jobs: int = 1, quick: bool = False) -> st
 
 def wan2018_campaign(out_dir: Path, jobs: int = 1, quick: bool = False,
                      schedule: bool = False, lateral: bool = False,
-                     nrz_ratio: float | None = None) -> str:
+                     nrz_ratio: float | None = None, restart_peers: bool = False) -> str:
     """Wan2018 sec. VI-B: 249 runs (140 fault-free), Tables III and IV, median-vote baseline."""
     out = Path(out_dir)
     if quick:
@@ -775,7 +785,7 @@ def wan2018_campaign(out_dir: Path, jobs: int = 1, quick: bool = False,
         n, n_cal, dur = 249, 40, FULL_DURATION_S
     res = run_campaign_wan2018(n, n_cal, jobs, dur, schedule=schedule,
                                n_calm=12 if quick else SCHEDULE_CALM_RUNS, lateral=lateral,
-                               nrz_ratio=nrz_ratio)
+                               nrz_ratio=nrz_ratio, restart_peers=restart_peers)
     _campaign_files(res, out)
     md = campaign_markdown(res, n, n_cal, dur)
     (out / "wan2018_campaign.md").write_text(md + "\n")
@@ -810,6 +820,22 @@ def wan2018_campaign_nrz_output(out_dir: Path, jobs: int = 1, quick: bool = Fals
                             nrz_ratio=NRZ_OUTPUT_RATIO)
 
 
+def wan2018_campaign_restart(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
+    """The monitor's default model (lateral terms, one J_th) with the peers' windows restarted
+    when an instance is isolated (``[fdi.*] restart_peers``), on the same runs."""
+    return wan2018_campaign(out_dir, jobs, quick, schedule=False, lateral=True,
+                            restart_peers=True)
+
+
+def wan2018_campaign_extensions_nrz_output(out_dir: Path, jobs: int = 1,
+                                           quick: bool = False) -> str:
+    """All our extensions together (lateral terms, J_th scheduled on the declared turbulence,
+    the peers' windows restarted on an isolation) with non-return to zero read as the output
+    falling to 10 % of the value, on the same runs."""
+    return wan2018_campaign(out_dir, jobs, quick, schedule=True, lateral=True,
+                            nrz_ratio=NRZ_OUTPUT_RATIO, restart_peers=True)
+
+
 # ------------------------------------------------------------------------------------------------
 # registry
 # ------------------------------------------------------------------------------------------------
@@ -825,6 +851,8 @@ def experiments() -> dict[str, Callable[[Path, int, bool], str]]:
         "wan2018_campaign_lateral": wan2018_campaign_lateral,
         "wan2018_campaign_lateral_only": wan2018_campaign_lateral_only,
         "wan2018_campaign_nrz_output": wan2018_campaign_nrz_output,
+        "wan2018_campaign_restart": wan2018_campaign_restart,
+        "wan2018_campaign_extensions_nrz_output": wan2018_campaign_extensions_nrz_output,
         "wan2018_onspeed": wan2018_onspeed,
         "wan2018_calibration": wan2018_calibration,
     }

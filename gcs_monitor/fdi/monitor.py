@@ -62,6 +62,11 @@ class SetMonitorParams:
         while a peer delivers, before it is isolated with fault type ``no_data`` (0 disables
         it). A silent or out-of-range sensor is failed; Wan2018 (eq. 17) never sees it,
         because an instance without a value has no residual.
+    restart_peers : when an instance is isolated, restart the residual windows and the
+        confirmation counts of its healthy peers (ours, not Wan2018): their residuals were
+        taken against a reference the isolated instance was still pulling (through the eq. 19
+        fusion into the model, or into the consensus), so they judge the faulty peer as much
+        as themselves. A peer that is faulty too is confirmed again from fresh residuals.
     """
 
     threshold: float
@@ -76,6 +81,7 @@ class SetMonitorParams:
     stuck_n: int = 0
     stuck_ratio: float = 1.0e-3
     no_data_n: int = 0
+    restart_peers: bool = False
 
     def __post_init__(self) -> None:
         if not self.threshold > 0.0:
@@ -346,6 +352,7 @@ class RedundantSetMonitor:
         no_data = self._no_data
         if self.p.no_data_n:
             self._no_data_update(usable)
+        isolated = False
         for i in rng:
             ri = r[i]
             if ri == ri:
@@ -355,8 +362,15 @@ class RedundantSetMonitor:
                 if (conf[i].update(j, th) or stuck[i] or no_data[i]) != faulty[i]:
                     faulty[i] = not faulty[i]
                     changed = True
+                    isolated |= faulty[i]
             elif (stuck[i] or no_data[i]) and not faulty[i]:
-                faulty[i] = changed = True
+                faulty[i] = changed = isolated = True
+        if isolated and self.p.restart_peers:
+            for i in rng:
+                if not faulty[i]:
+                    rms[i].reset()
+                    conf[i].reset()
+                    J[i] = 0.0
         self._usable = usable
 
         eligible = [u and not f for u, f in zip(usable, faulty, strict=True)]

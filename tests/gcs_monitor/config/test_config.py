@@ -138,6 +138,16 @@ def test_no_data_window_reaches_the_set_monitor(tmp_path):
     assert set_params("cas", load_config(None).fdi.cas, AIR_DT_S).no_data_n == 10  # 0.5 s
 
 
+def test_restart_peers_reaches_the_set_monitor(tmp_path):
+    from gcs_monitor.pipeline import AIR_DT_S, set_params
+
+    c = load_config(_write(tmp_path, "[fdi.aoa]\nrestart_peers = true\n"))
+    assert set_params("aoa", c.fdi.aoa, AIR_DT_S).restart_peers
+    assert not set_params("cas", c.fdi.cas, AIR_DT_S).restart_peers  # default
+    with pytest.raises(ConfigError, match="restart_peers"):
+        load_config(_write(tmp_path, "[fdi.cas]\nrestart_peers = 1\n"))
+
+
 def test_threshold_grows_with_the_declared_turbulence(tmp_path):
     from gcs_monitor.config import scheduled_threshold
     from gcs_monitor.core.units import DEG2RAD, KT2MPS

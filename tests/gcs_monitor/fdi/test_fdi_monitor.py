@@ -322,3 +322,39 @@ def test_channel_bank_equals_channel_monitors(latch: bool) -> None:
             assert (a.rms, a.faulty, a.threshold, a.channel) == (b.rms, b.faulty, b.threshold,
                                                                  b.channel), k
             assert a.value == b.value or (a.value != a.value and b.value != b.value)
+
+
+def _restart_case(peer_residual_after: float, restart: bool) -> tuple[list[bool], list[bool]]:
+    """Reference-based set, J_th = 1, N_eval = 10, n_D = 5. Instance 1 carries a residual of 5
+    from k = 0 (J = 1.58 at once: confirmed at k = 4). Instance 0 carries 2.0 for k = 0..4 (the
+    pull of instance 1 on the reference) and ``peer_residual_after`` from k = 5 on."""
+    p = SetMonitorParams(threshold=1.0, noise_sigma=0.01, runaway_rate_per_s=0.02,
+                         restart_peers=restart)
+    mon = RedundantSetMonitor("aoa", 3, p, estimator="airdata_cmhe")
+    f0, f1 = [], []
+    for k in range(30):
+        r0 = 2.0 if k < 5 else peer_residual_after
+        st, _ = mon.step(k * DT_US, [r0, 5.0, 0.0], [True, True, True], 0.0)
+        f0.append(st.faulty[0])
+        f1.append(st.faulty[1])
+    return f0, f1
+
+
+def test_restart_peers_drops_residuals_taken_against_the_faulty_peer() -> None:
+    """Hand count: instance 0's J crosses 1 at k = 2 (sqrt(3 * 4 / 10) = 1.10). Without the
+    restart its window keeps the five 2.0s until k = 14, so it collects its 5th exceedance at
+    k = 6 and is falsely isolated; with the restart at k = 4 its window holds only zeros after."""
+    f0, f1 = _restart_case(0.0, restart=False)
+    assert f1.index(True) == 4 and f0.index(True) == 6
+    f0, f1 = _restart_case(0.0, restart=True)
+    assert f1.index(True) == 4 and not any(f0)
+
+
+def test_restart_peers_still_isolates_a_peer_that_is_faulty_too() -> None:
+    """A peer whose residual stays at 2.0 is confirmed from fresh residuals: the window
+    restarts empty at k = 4, J = sqrt(3 * 4 / 10) > 1 from k = 7, 5th exceedance at k = 11
+    (against k = 6 without the restart)."""
+    f0, _ = _restart_case(2.0, restart=False)
+    assert f0.index(True) == 6
+    f0, _ = _restart_case(2.0, restart=True)
+    assert f0.index(True) == 11
