@@ -51,9 +51,9 @@ class SetConfig:
     # isolated (fault type no_data); 0 turns it off (AoA and CAS sets). It counts after the
     # telemetry's stale_after_s has made the instance invalid.
     no_data_window_s: float = 0.5
-    # restart the healthy peers' residual windows when an instance is isolated (ours; see
-    # gcs_monitor.fdi.monitor.SetMonitorParams.restart_peers)
-    restart_peers: bool = False
+    # restart the healthy peers' residual windows when an instance is isolated (ours, not
+    # Wan2018; gcs_monitor.fdi.monitor.SetMonitorParams.restart_peers); false = Wan2018's scheme
+    restart_peers: bool = True
 
 
 def scheduled_threshold(cfg: SetConfig, turbulence_sigma_mps: float) -> float:

@@ -805,7 +805,8 @@ def wan2018_campaign_lateral(out_dir: Path, jobs: int = 1, quick: bool = False) 
 
 
 def wan2018_campaign_lateral_only(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
-    """The lateral terms with Wan2018's single J_th: the model change on its own."""
+    """The lateral terms with Wan2018's single J_th and windows: the model change on its
+    own."""
     return wan2018_campaign(out_dir, jobs, quick, schedule=False, lateral=True)
 
 
@@ -813,15 +814,16 @@ NRZ_OUTPUT_RATIO = -0.9  # "10 % x current value" read as the output: y = 0.1 x,
 
 
 def wan2018_campaign_nrz_output(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
-    """The monitor's default model (lateral terms, one J_th) on the same runs, with Table II's
-    non-return to zero read as the sensor *output* falling to 10 % of the value (``f = -0.9 x``)
-    instead of our literal ``f = 0.1 x``: what the ambiguity costs (docs/papers-notes.md)."""
+    """The monitor's defaults (lateral terms, one J_th, peers restarted on an isolation) on the
+    same runs, with Table II's non-return to zero read as the sensor *output* falling to 10 %
+    of the value (``f = -0.9 x``) instead of our literal ``f = 0.1 x``: what the ambiguity
+    costs (docs/papers-notes.md)."""
     return wan2018_campaign(out_dir, jobs, quick, schedule=False, lateral=True,
-                            nrz_ratio=NRZ_OUTPUT_RATIO)
+                            nrz_ratio=NRZ_OUTPUT_RATIO, restart_peers=True)
 
 
 def wan2018_campaign_restart(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
-    """The monitor's default model (lateral terms, one J_th) with the peers' windows restarted
+    """The monitor's defaults: the lateral terms, one J_th, and the peers' windows restarted
     when an instance is isolated (``[fdi.*] restart_peers``), on the same runs."""
     return wan2018_campaign(out_dir, jobs, quick, schedule=False, lateral=True,
                             restart_peers=True)

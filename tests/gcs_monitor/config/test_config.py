@@ -141,9 +141,9 @@ def test_no_data_window_reaches_the_set_monitor(tmp_path):
 def test_restart_peers_reaches_the_set_monitor(tmp_path):
     from gcs_monitor.pipeline import AIR_DT_S, set_params
 
-    c = load_config(_write(tmp_path, "[fdi.aoa]\nrestart_peers = true\n"))
-    assert set_params("aoa", c.fdi.aoa, AIR_DT_S).restart_peers
-    assert not set_params("cas", c.fdi.cas, AIR_DT_S).restart_peers  # default
+    c = load_config(_write(tmp_path, "[fdi.aoa]\nrestart_peers = false\n"))
+    assert not set_params("aoa", c.fdi.aoa, AIR_DT_S).restart_peers  # Wan2018's scheme
+    assert set_params("cas", c.fdi.cas, AIR_DT_S).restart_peers  # default
     with pytest.raises(ConfigError, match="restart_peers"):
         load_config(_write(tmp_path, "[fdi.cas]\nrestart_peers = 1\n"))
 
@@ -185,5 +185,8 @@ def test_lateral_terms_switch_reaches_the_estimator(tmp_path):
 
     assert variant_config("cmhe").airdata.lateral_terms is False  # the paper reproductions
     assert variant_config("cmhe", lateral=True).airdata.lateral_terms is True
+    paper = variant_config("cmhe")
+    assert not paper.fdi.aoa.restart_peers and not paper.fdi.cas.restart_peers
+    assert variant_config("cmhe", restart_peers=True).fdi.aoa.restart_peers
     with pytest.raises(ConfigError, match="must be true or false"):
         load_config(_write(tmp_path, "[airdata]\nlateral_terms = 1\n"))
