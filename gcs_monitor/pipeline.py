@@ -80,13 +80,27 @@ class MheMeasurementFusion:
     - J is floored at ``floor_ratio * J_th`` (not at the sensor noise): healthy instances share
       the weight equally instead of by the noise of their fault-free residuals.
 
+    With ``equal_pair`` (``[fdi.<set>] equal_pair_weights``; ours, off by default) the last two
+    healthy instances get equal weights while both are below J_th (J floored at J_th; one
+    above J_th still leaves the fusion, as eq. 19's set S says). Two instances cannot isolate
+    each other through the consensus, and the model is driven by their fusion: for a fault the
+    wind states absorb (a Table II non-return to zero of 0.1 x on one of the last two vanes),
+    1/J^2 weights make the model follow whichever instance had the smaller J at the fault's
+    onset, so either the faulty one or the healthy one is isolated, by chance. Equal weights
+    keep the model at the pair's mean: such a fault is missed (the output carries half of it)
+    instead of being isolated on the wrong instance; a fault faster than the wind bounds still
+    raises the faulty instance's J first. docs/papers-notes.md ("The last two instances")
+    gives the measured trade.
+
     Detection stays on the model residuals (eq. 17) in the set monitor; the fused value is what
     the instances judged healthy (not latched out, J_model <= J_th) agree on.
     """
 
-    def __init__(self, n: int, threshold: float, n_eval: int, floor_ratio: float) -> None:
+    def __init__(self, n: int, threshold: float, n_eval: int, floor_ratio: float,
+                 equal_pair: bool = False) -> None:
         self.threshold = threshold
         self.floor = floor_ratio * threshold
+        self.equal_pair = equal_pair
         self._rms = [ResidualRms(RmsWindowParams(rms_window_n=n_eval)) for _ in range(n)]
         self._j = [0.0] * n
 
@@ -94,7 +108,8 @@ class MheMeasurementFusion:
              ) -> tuple[float | None, tuple[float, ...]]:
         """Fused value (None when no instance is healthy) and the weights used."""
         healthy = [u and not f for u, f in zip(usable, status.faulty, strict=True)]
-        if sum(healthy) >= 3:
+        n_healthy = sum(healthy)
+        if n_healthy >= 3:
             _, r = consensus_residuals(measured, usable, healthy)
             for i, ri in enumerate(r):
                 if ri == ri:
@@ -102,7 +117,8 @@ class MheMeasurementFusion:
         else:
             self._j = [0.0] * len(measured)
         j_eff = [max(a, b) for a, b in zip(status.rms, self._j, strict=True)]
-        w = adaptive_weights(j_eff, healthy, self.threshold, self.floor)
+        floor = self.threshold if self.equal_pair and n_healthy == 2 else self.floor
+        w = adaptive_weights(j_eff, healthy, self.threshold, floor)
         if not any(w):
             return None, tuple(w)
         return sum(wi * x for wi, x in zip(w, measured, strict=True) if wi), tuple(w)
@@ -187,9 +203,11 @@ class VehiclePipeline:
         self._last_sets: list[SetStatus] = []
         self._airdata_estimate: Estimate | None = None
         self._aoa_fusion = MheMeasurementFusion(n_aoa, aoa_cfg.threshold, aoa_cfg.n_eval,
-                                                AIR_WEIGHT_FLOOR_RATIO)
+                                                AIR_WEIGHT_FLOOR_RATIO,
+                                                aoa_cfg.equal_pair_weights)
         self._cas_fusion = MheMeasurementFusion(n_cas, cas_cfg.threshold, cas_cfg.n_eval,
-                                                AIR_WEIGHT_FLOOR_RATIO)
+                                                AIR_WEIGHT_FLOOR_RATIO,
+                                                cas_cfg.equal_pair_weights)
         self.frames = 0
         self.active: dict[ChannelId, AlarmEvent] = {}
         # Per-channel ChannelStatus records in PipelineStep.channels; the Monitor turns them off

@@ -54,6 +54,9 @@ class SetConfig:
     # restart the healthy peers' residual windows when an instance is isolated (ours, not
     # Wan2018; gcs_monitor.fdi.monitor.SetMonitorParams.restart_peers); false = Wan2018's scheme
     restart_peers: bool = True
+    # with two healthy instances left, fuse them with equal eq. 19 weights while both are
+    # below J_th (ours, not Wan2018; gcs_monitor.pipeline.MheMeasurementFusion); off by default
+    equal_pair_weights: bool = False
 
 
 def scheduled_threshold(cfg: SetConfig, turbulence_sigma_mps: float) -> float:
@@ -286,7 +289,9 @@ def _set_config(name: str, data: dict[str, Any], src: str) -> SetConfig:
                     no_data_window_s=default.no_data_window_s
                     if partial.no_data_window_s is None else partial.no_data_window_s,
                     restart_peers=default.restart_peers if partial.restart_peers is None
-                    else partial.restart_peers)
+                    else partial.restart_peers,
+                    equal_pair_weights=default.equal_pair_weights
+                    if partial.equal_pair_weights is None else partial.equal_pair_weights)
     if cfg.no_data_window_s < 0.0:
         raise ConfigError(f"{src}: 'fdi.{name}.no_data_window_s' must be 0 (off) or positive, "
                           f"got {cfg.no_data_window_s}")
@@ -309,6 +314,7 @@ class _SetPartial:
     stuck_window_s: float | None = None
     no_data_window_s: float | None = None
     restart_peers: bool | None = None
+    equal_pair_weights: bool | None = None
 
 
 def load_config(path: Path | None = None) -> MonitorConfig:

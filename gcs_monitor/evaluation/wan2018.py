@@ -98,18 +98,20 @@ def runaway_faults(rate_ktsps: float, t0_s: float = FIG45_T0_S) -> tuple[Any, ..
 
 
 def variant_config(variant: str, base: MonitorConfig | None = None, *,
-                   lateral: bool = False, restart_peers: bool = False) -> MonitorConfig:
+                   lateral: bool = False, restart_peers: bool = False,
+                   equal_pair: bool = False) -> MonitorConfig:
     """Air-data only (no IMU estimators: not part of these experiments), with Wan2018's
     wings-level model (eqs. 12-15) unless ``lateral`` asks for our bank and sideslip terms,
-    and Wan2018's per-instance windows unless ``restart_peers`` asks for our restart of the
-    peers' windows on an isolation, whatever the monitor's defaults are: the reproductions use
-    the paper's scheme."""
+    Wan2018's per-instance windows unless ``restart_peers`` asks for our restart of the
+    peers' windows on an isolation, and eq. 19's 1/J^2 weights for the last two instances
+    unless ``equal_pair`` asks for our equal weights, whatever the monitor's defaults are:
+    the reproductions use the paper's scheme."""
     cfg = base or MonitorConfig()
+    sets = {s: dataclasses.replace(getattr(cfg.fdi, s), restart_peers=restart_peers,
+                                   equal_pair_weights=equal_pair) for s in ("aoa", "cas")}
     cfg = dataclasses.replace(
         cfg, airdata=dataclasses.replace(cfg.airdata, lateral_terms=lateral),
-        fdi=dataclasses.replace(
-            cfg.fdi, aoa=dataclasses.replace(cfg.fdi.aoa, restart_peers=restart_peers),
-            cas=dataclasses.replace(cfg.fdi.cas, restart_peers=restart_peers)))
+        fdi=dataclasses.replace(cfg.fdi, **sets))
     return dataclasses.replace(cfg, estimators=EstimatorsConfig(imu_ts=False, imu_hosm=False,
                                                                 airdata=variant))
 
@@ -484,17 +486,19 @@ def run_campaign_wan2018(n_runs: int, n_cal: int, jobs: int, duration_s: tuple[f
                          *, variant: str = "cmhe", seed: int = CAMPAIGN_SEED,
                          progress: bool = True, schedule: bool = False,
                          n_calm: int = SCHEDULE_CALM_RUNS, lateral: bool = False,
-                         nrz_ratio: float | None = None, restart_peers: bool = False
-                         ) -> dict[str, Any]:
+                         nrz_ratio: float | None = None, restart_peers: bool = False,
+                         equal_pair: bool = False) -> dict[str, Any]:
     """Calibrate J_th on fault-free seeds (one J_th per set, or scheduled on the declared
     turbulence), then run the campaign (monitor + median vote). ``lateral`` adds bank and
     sideslip to the model (``[airdata] lateral_terms``; ours); ``nrz_ratio`` reads Table II's
     non-return to zero differently (:func:`campaign_scenarios`; calibration is fault-free, so
     the thresholds do not change); ``restart_peers`` restarts the peers' windows on an
     isolation (``[fdi.*] restart_peers``; ours; calibration is open loop, so it does not
-    change the thresholds either)."""
+    change the thresholds either); ``equal_pair`` fuses the last two instances with equal
+    weights (``[fdi.*] equal_pair_weights``; ours; calibration runs keep all three)."""
     t0 = time.perf_counter()
-    base = variant_config(variant, lateral=lateral, restart_peers=restart_peers)
+    base = variant_config(variant, lateral=lateral, restart_peers=restart_peers,
+                          equal_pair=equal_pair)
     th, jmax = calibrate_campaign(n_cal, jobs, duration_s, base, progress=progress,
                                   schedule=schedule, n_calm=n_calm)
     cfg = with_thresholds(base, th["aoa"], th["cas"], th["aoa_per_turbulence"],
@@ -512,6 +516,7 @@ def run_campaign_wan2018(n_runs: int, n_cal: int, jobs: int, duration_s: tuple[f
         cats[c] = cats.get(c, 0) + 1
     return {"tables": tables, "table3": t3, "thresholds": th, "jmax_cal": jmax, "records": recs,
             "lateral": lateral, "nrz_ratio": nrz_ratio, "restart_peers": restart_peers,
+            "equal_pair": equal_pair,
             "err_stats": [st for _, st in res],
             "categories": cats, "sim_s": sum(sc.duration_s for sc in scs), "scenarios": scs,
             "wall_s": time.perf_counter() - t0, "variant": variant, "cfg": cfg}
@@ -540,7 +545,9 @@ def campaign_markdown(res: dict[str, Any], n_runs: int, n_cal: int,
            f"{100.0 * (1.0 + res['nrz_ratio']):.0f} % of the value), not Table II's literal "
            f"f = 0.1 x.")
         + (" The healthy peers' windows restart when an instance is isolated "
-           "(`restart_peers`)." if res.get("restart_peers") else ""),
+           "(`restart_peers`)." if res.get("restart_peers") else "")
+        + (" The last two healthy instances of a set are fused with equal weights "
+           "(`equal_pair_weights`)." if res.get("equal_pair") else ""),
         (f"Thresholds from {n_cal} fault-free runs of seed {CALIBRATION_SEED} and "
          f"{res['jmax_cal'].get('calm_runs_extra', 0.0):.0f} non-turbulent ones of seed "
          f"{CALIBRATION_SEED + 1} (60-200 s), run open loop (no "
@@ -776,7 +783,8 @@ def wan2018_calibration(out_dir: Path, jobs: int = 1, quick: bool = False) -> st
 
 def wan2018_campaign(out_dir: Path, jobs: int = 1, quick: bool = False,
                      schedule: bool = False, lateral: bool = False,
-                     nrz_ratio: float | None = None, restart_peers: bool = False) -> str:
+                     nrz_ratio: float | None = None, restart_peers: bool = False,
+                     equal_pair: bool = False) -> str:
     """Wan2018 sec. VI-B: 249 runs (140 fault-free), Tables III and IV, median-vote baseline."""
     out = Path(out_dir)
     if quick:
@@ -785,7 +793,8 @@ def wan2018_campaign(out_dir: Path, jobs: int = 1, quick: bool = False,
         n, n_cal, dur = 249, 40, FULL_DURATION_S
     res = run_campaign_wan2018(n, n_cal, jobs, dur, schedule=schedule,
                                n_calm=12 if quick else SCHEDULE_CALM_RUNS, lateral=lateral,
-                               nrz_ratio=nrz_ratio, restart_peers=restart_peers)
+                               nrz_ratio=nrz_ratio, restart_peers=restart_peers,
+                               equal_pair=equal_pair)
     _campaign_files(res, out)
     md = campaign_markdown(res, n, n_cal, dur)
     (out / "wan2018_campaign.md").write_text(md + "\n")
@@ -829,13 +838,20 @@ def wan2018_campaign_restart(out_dir: Path, jobs: int = 1, quick: bool = False) 
                             restart_peers=True)
 
 
+def wan2018_campaign_extensions(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
+    """All our extensions together (lateral terms, J_th scheduled on the declared turbulence,
+    the peers' windows restarted on an isolation, equal weights for the last two instances)
+    with Table II's non-return to zero read literally, on the same runs."""
+    return wan2018_campaign(out_dir, jobs, quick, schedule=True, lateral=True,
+                            restart_peers=True, equal_pair=True)
+
+
 def wan2018_campaign_extensions_nrz_output(out_dir: Path, jobs: int = 1,
                                            quick: bool = False) -> str:
-    """All our extensions together (lateral terms, J_th scheduled on the declared turbulence,
-    the peers' windows restarted on an isolation) with non-return to zero read as the output
-    falling to 10 % of the value, on the same runs."""
+    """All our extensions together (as ``wan2018_campaign_extensions``) with non-return to
+    zero read as the output falling to 10 % of the value, on the same runs."""
     return wan2018_campaign(out_dir, jobs, quick, schedule=True, lateral=True,
-                            nrz_ratio=NRZ_OUTPUT_RATIO, restart_peers=True)
+                            nrz_ratio=NRZ_OUTPUT_RATIO, restart_peers=True, equal_pair=True)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -854,6 +870,7 @@ def experiments() -> dict[str, Callable[[Path, int, bool], str]]:
         "wan2018_campaign_lateral_only": wan2018_campaign_lateral_only,
         "wan2018_campaign_nrz_output": wan2018_campaign_nrz_output,
         "wan2018_campaign_restart": wan2018_campaign_restart,
+        "wan2018_campaign_extensions": wan2018_campaign_extensions,
         "wan2018_campaign_extensions_nrz_output": wan2018_campaign_extensions_nrz_output,
         "wan2018_onspeed": wan2018_onspeed,
         "wan2018_calibration": wan2018_calibration,
