@@ -148,6 +148,16 @@ def test_restart_peers_reaches_the_set_monitor(tmp_path):
         load_config(_write(tmp_path, "[fdi.cas]\nrestart_peers = 1\n"))
 
 
+def test_equal_pair_weights_reaches_the_fusion(tmp_path):
+    from gcs_monitor.pipeline import VehiclePipeline
+
+    assert not VehiclePipeline(1, load_config(None))._aoa_fusion.equal_pair  # off by default
+    p = VehiclePipeline(1, load_config(_write(tmp_path, "[fdi.aoa]\nequal_pair_weights = true\n")))
+    assert p._aoa_fusion.equal_pair and not p._cas_fusion.equal_pair
+    with pytest.raises(ConfigError, match="equal_pair_weights"):
+        load_config(_write(tmp_path, "[fdi.cas]\nequal_pair_weights = \"yes\"\n"))
+
+
 def test_threshold_grows_with_the_declared_turbulence(tmp_path):
     from gcs_monitor.config import scheduled_threshold
     from gcs_monitor.core.units import DEG2RAD, KT2MPS
@@ -188,5 +198,7 @@ def test_lateral_terms_switch_reaches_the_estimator(tmp_path):
     paper = variant_config("cmhe")
     assert not paper.fdi.aoa.restart_peers and not paper.fdi.cas.restart_peers
     assert variant_config("cmhe", restart_peers=True).fdi.aoa.restart_peers
+    assert not paper.fdi.aoa.equal_pair_weights and not paper.fdi.cas.equal_pair_weights
+    assert variant_config("cmhe", equal_pair=True).fdi.cas.equal_pair_weights
     with pytest.raises(ConfigError, match="must be true or false"):
         load_config(_write(tmp_path, "[airdata]\nlateral_terms = 1\n"))

@@ -46,6 +46,23 @@ def test_fusion_equal_weights_below_floor_and_lost_set() -> None:
     assert fused is None and not any(w)
 
 
+def test_fusion_equal_pair_weights_for_the_last_two() -> None:
+    # instance 0 isolated; 1 and 2 healthy with J 0.3 and 1.2 (J_th 2, floor 0.25 x 2 = 0.5)
+    st = _status((5.0, 0.3, 1.2), (True, False, False))
+    fused, w = MheMeasurementFusion(3, 2.0, 10, 0.25).step([9.0, 1.0, 2.0], [True] * 3, st)
+    # eq. 19: 1/0.5^2 = 4 against 1/1.2^2 = 0.694
+    assert w == pytest.approx((0.0, 4 / (4 + 1 / 1.44), (1 / 1.44) / (4 + 1 / 1.44)))
+    fus = MheMeasurementFusion(3, 2.0, 10, 0.25, equal_pair=True)
+    fused, w = fus.step([9.0, 1.0, 2.0], [True] * 3, st)
+    assert w == pytest.approx((0.0, 0.5, 0.5)) and fused == pytest.approx(1.5)
+    # one of the two above J_th leaves the fusion before it is confirmed (eq. 19's set S)
+    fused, w = fus.step([9.0, 1.0, 7.0], [True] * 3, _status((5.0, 0.3, 2.5), (True, False, False)))
+    assert w == pytest.approx((0.0, 1.0, 0.0)) and fused == pytest.approx(1.0)
+    # three healthy: the rule does not apply (consensus J and the 0.25 J_th floor as before)
+    fused, w = fus.step([1.0, 1.0, 1.0], [True] * 3, _status((0.3, 0.3, 1.2)))
+    assert w[0] == pytest.approx(w[1]) and w[0] > 0.4 > w[2]
+
+
 def test_generator_category_counts_follow_wan2018() -> None:
     assert Counter(category_plan(249, Wan2018Ranges())) == {
         "none": 140, "I": 47, "II": 22, "III": 25, "IV": 15}
