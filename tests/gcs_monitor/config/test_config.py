@@ -108,6 +108,19 @@ def test_shipped_wan2018_transport_config_loads():
     assert c.estimators.airdata == "cmhe"
 
 
+def test_shipped_wan2018_extensions_config_loads():
+    from pathlib import Path
+
+    from gcs_monitor.config import scheduled_threshold
+
+    c = load_config(Path(__file__).resolve().parents[3] / "configs"
+                    / "wan2018_transport_extensions.toml")
+    assert c.fdi.aoa.threshold == pytest.approx(math.radians(0.327))
+    assert scheduled_threshold(c.fdi.aoa, 3.6) == pytest.approx(math.radians(0.327 + 0.170 * 3.6))
+    assert c.fdi.aoa.equal_pair_weights and c.fdi.cas.equal_pair_weights
+    assert c.fdi.aoa.restart_peers and c.airdata.lateral_terms  # the defaults it was run with
+
+
 def test_airdata_model_switch_reaches_the_estimator(tmp_path):
     from gcs_monitor.monitor import build_estimators
 
