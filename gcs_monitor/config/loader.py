@@ -277,21 +277,10 @@ def _set_config(name: str, data: dict[str, Any], src: str) -> SetConfig:
             raise ConfigError(f"{src}: 'fdi.{name}.{slope_key}' must be a non-negative number")
         slope = float(raw) * _UNIT_TO_SI[unit]
     partial = _build(_SetPartial, data, f"fdi.{name}", src)
-    cfg = SetConfig(threshold=threshold, threshold_per_turbulence=slope,
-                    n_eval=partial.n_eval or default.n_eval,
-                    n_detect=partial.n_detect or default.n_detect,
-                    clear_ratio=default.clear_ratio if partial.clear_ratio is None
-                    else partial.clear_ratio,
-                    n_clear=partial.n_clear or default.n_clear,
-                    latch=default.latch if partial.latch is None else partial.latch,
-                    stuck_window_s=default.stuck_window_s if partial.stuck_window_s is None
-                    else partial.stuck_window_s,
-                    no_data_window_s=default.no_data_window_s
-                    if partial.no_data_window_s is None else partial.no_data_window_s,
-                    restart_peers=default.restart_peers if partial.restart_peers is None
-                    else partial.restart_peers,
-                    equal_pair_weights=default.equal_pair_weights
-                    if partial.equal_pair_weights is None else partial.equal_pair_weights)
+    given = {f.name: getattr(partial, f.name) for f in dataclasses.fields(_SetPartial)
+             if getattr(partial, f.name) is not None}
+    cfg = dataclasses.replace(default, threshold=threshold, threshold_per_turbulence=slope,
+                              **given)
     if cfg.no_data_window_s < 0.0:
         raise ConfigError(f"{src}: 'fdi.{name}.no_data_window_s' must be 0 (off) or positive, "
                           f"got {cfg.no_data_window_s}")
@@ -306,10 +295,12 @@ def _set_config(name: str, data: dict[str, Any], src: str) -> SetConfig:
 
 @dataclass(frozen=True, slots=True)
 class _SetPartial:
-    n_eval: int = 0
-    n_detect: int = 0
+    """The keys of one [fdi.<set>] table besides its threshold; None = not given (default)."""
+
+    n_eval: int | None = None
+    n_detect: int | None = None
     clear_ratio: float | None = None
-    n_clear: int = 0
+    n_clear: int | None = None
     latch: bool | None = None
     stuck_window_s: float | None = None
     no_data_window_s: float | None = None
