@@ -370,6 +370,9 @@ def _read_fault(t: _Table, catalogue: dict[str, Any]) -> FaultSpec:
                 raise ScenarioError(f"{e} ({channel} is {dim})") from None
             if v is not None:
                 params.append((f"{stem}_{si}" + ("_per_s" if per_s else ""), v))
+    if kind == "nrz" and len(params) > 1:
+        raise t.err("gain", "give either level (the output falls to level x the value) or gain "
+                    "(an additive gain x the value), not both")
     t.finish()
     return FaultSpec(channel, kind, t0, t1, tuple(params))
 

@@ -48,7 +48,8 @@ class Wan2018Ranges:
     cas_osc_hz: tuple[float, float] = (0.5, 4.0)
     aoa_runaway_degps: tuple[float, float] = (0.2, 25.0)
     cas_runaway_ktsps: tuple[float, float] = (0.5, 50.0)
-    nrz_ratio: float = 0.1  # 10% x current value
+    nrz_level: float = 0.1  # "10% x current value": the output falls to 10 % of the value
+    nrz_gain: float | None = None  # the literal additive reading f = gain x instead (0.1)
     aoa_noise_deg: tuple[float, float] = (1.0, 2.0)
     cas_noise_kts: tuple[float, float] = (10.0, 20.0)
     fault_free_fraction: float = 140.0 / 249.0  # 140 fault-free of 249 runs
@@ -78,7 +79,7 @@ def _fault(rng: np.random.Generator, r: Wan2018Ranges, channel: str, t0: float) 
         lim = r.aoa_amp_deg[1] * DEG2RAD if aoa else r.cas_amp_kts[1] * KT2MPS
         p = ((f"rate_{u}_per_s", sign * rate), (f"limit_{u}", lim))
     elif fam == "nrz":
-        p = (("ratio", r.nrz_ratio),)
+        p = (("level", r.nrz_level),) if r.nrz_gain is None else (("gain", r.nrz_gain),)
     elif fam == "noise":
         sig = (rng.uniform(*r.aoa_noise_deg) * DEG2RAD if aoa
                else rng.uniform(*r.cas_noise_kts) * KT2MPS)

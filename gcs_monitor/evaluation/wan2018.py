@@ -378,14 +378,16 @@ FULL_DURATION_S = (60.0, 700.0)  # Wan2018 sec. VI-B: 60-700 s
 
 def campaign_scenarios(n_runs: int, seed: int, duration_s: tuple[float, float],
                        fault_free_only: bool = False,
-                       nrz_ratio: float | None = None) -> list[Any]:
-    """The seeded campaign runs; ``nrz_ratio`` overrides Table II's non-return-to-zero reading
-    (default ``f = 0.1 x``). It draws no random number, so every run stays the same otherwise."""
+                       nrz_gain: float | None = None) -> list[Any]:
+    """The seeded campaign runs. Table II's non-return to zero is the output falling to 10 % of
+    the value (``y = 0.1 x``; docs/papers-notes.md); ``nrz_gain`` injects the literal additive
+    reading ``f = nrz_gain x`` instead. It draws no random number, so every run stays the same
+    otherwise."""
     from sim_vehicle.wan2018_gen import Wan2018Ranges, generate
 
     r = Wan2018Ranges(duration_s=duration_s)
-    if nrz_ratio is not None:
-        r = dataclasses.replace(r, nrz_ratio=nrz_ratio)
+    if nrz_gain is not None:
+        r = dataclasses.replace(r, nrz_gain=nrz_gain)
     if fault_free_only:
         r = dataclasses.replace(r, fault_free_fraction=1.0)
     return generate(n_runs, seed, ranges=r)
@@ -486,12 +488,12 @@ def run_campaign_wan2018(n_runs: int, n_cal: int, jobs: int, duration_s: tuple[f
                          *, variant: str = "cmhe", seed: int = CAMPAIGN_SEED,
                          progress: bool = True, schedule: bool = False,
                          n_calm: int = SCHEDULE_CALM_RUNS, lateral: bool = False,
-                         nrz_ratio: float | None = None, restart_peers: bool = False,
+                         nrz_gain: float | None = None, restart_peers: bool = False,
                          equal_pair: bool = False) -> dict[str, Any]:
     """Calibrate J_th on fault-free seeds (one J_th per set, or scheduled on the declared
     turbulence), then run the campaign (monitor + median vote). ``lateral`` adds bank and
-    sideslip to the model (``[airdata] lateral_terms``; ours); ``nrz_ratio`` reads Table II's
-    non-return to zero differently (:func:`campaign_scenarios`; calibration is fault-free, so
+    sideslip to the model (``[airdata] lateral_terms``; ours); ``nrz_gain`` reads Table II's
+    non-return to zero literally (:func:`campaign_scenarios`; calibration is fault-free, so
     the thresholds do not change); ``restart_peers`` restarts the peers' windows on an
     isolation (``[fdi.*] restart_peers``; ours; calibration is open loop, so it does not
     change the thresholds either); ``equal_pair`` fuses the last two instances with equal
@@ -503,7 +505,7 @@ def run_campaign_wan2018(n_runs: int, n_cal: int, jobs: int, duration_s: tuple[f
                                   schedule=schedule, n_calm=n_calm)
     cfg = with_thresholds(base, th["aoa"], th["cas"], th["aoa_per_turbulence"],
                           th["cas_per_turbulence"])
-    scs = campaign_scenarios(n_runs, seed, duration_s, nrz_ratio=nrz_ratio)
+    scs = campaign_scenarios(n_runs, seed, duration_s, nrz_gain=nrz_gain)
     res = _pool(_campaign_run, [(i, sc, cfg) for i, sc in enumerate(scs)], jobs, "campaign",
                 progress)
     recs = [r for r, _ in res]
@@ -515,7 +517,7 @@ def run_campaign_wan2018(n_runs: int, n_cal: int, jobs: int, duration_s: tuple[f
         c = sc.description.split("category ")[1].split(",")[0]
         cats[c] = cats.get(c, 0) + 1
     return {"tables": tables, "table3": t3, "thresholds": th, "jmax_cal": jmax, "records": recs,
-            "lateral": lateral, "nrz_ratio": nrz_ratio, "restart_peers": restart_peers,
+            "lateral": lateral, "nrz_gain": nrz_gain, "restart_peers": restart_peers,
             "equal_pair": equal_pair,
             "err_stats": [st for _, st in res],
             "categories": cats, "sim_s": sum(sc.duration_s for sc in scs), "scenarios": scs,
@@ -540,10 +542,10 @@ def campaign_markdown(res: dict[str, Any], n_runs: int, n_cal: int,
         f"{res['wall_s']:.0f} s wall. Estimator: {res['variant'].upper()}"
         + (" with bank and sideslip in eqs. 12-15 (`lateral_terms`)." if res.get("lateral")
            else " (Wan2018's wings-level model).")
-        + ("" if res.get("nrz_ratio") is None else
-           f" Non-return to zero injected as f = {res['nrz_ratio']:g} x (the output falls to "
-           f"{100.0 * (1.0 + res['nrz_ratio']):.0f} % of the value), not Table II's literal "
-           f"f = 0.1 x.")
+        + (" Non-return to zero: the output falls to 10 % of the value (y = 0.1 x)."
+           if res.get("nrz_gain") is None else
+           f" Non-return to zero read literally: f = {res['nrz_gain']:g} x (the output "
+           f"{100.0 * (1.0 + res['nrz_gain']):.0f} % of the value), not y = 0.1 x.")
         + (" The healthy peers' windows restart when an instance is isolated "
            "(`restart_peers`)." if res.get("restart_peers") else "")
         + (" The last two healthy instances of a set are fused with equal weights "
@@ -783,7 +785,7 @@ def wan2018_calibration(out_dir: Path, jobs: int = 1, quick: bool = False) -> st
 
 def wan2018_campaign(out_dir: Path, jobs: int = 1, quick: bool = False,
                      schedule: bool = False, lateral: bool = False,
-                     nrz_ratio: float | None = None, restart_peers: bool = False,
+                     nrz_gain: float | None = None, restart_peers: bool = False,
                      equal_pair: bool = False) -> str:
     """Wan2018 sec. VI-B: 249 runs (140 fault-free), Tables III and IV, median-vote baseline."""
     out = Path(out_dir)
@@ -793,7 +795,7 @@ def wan2018_campaign(out_dir: Path, jobs: int = 1, quick: bool = False,
         n, n_cal, dur = 249, 40, FULL_DURATION_S
     res = run_campaign_wan2018(n, n_cal, jobs, dur, schedule=schedule,
                                n_calm=12 if quick else SCHEDULE_CALM_RUNS, lateral=lateral,
-                               nrz_ratio=nrz_ratio, restart_peers=restart_peers,
+                               nrz_gain=nrz_gain, restart_peers=restart_peers,
                                equal_pair=equal_pair)
     _campaign_files(res, out)
     md = campaign_markdown(res, n, n_cal, dur)
@@ -801,34 +803,7 @@ def wan2018_campaign(out_dir: Path, jobs: int = 1, quick: bool = False,
     return md
 
 
-def wan2018_campaign_scheduled(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
-    """The same campaign with J_th scheduled on the declared turbulence
-    (:func:`threshold_schedule`), our alternative to Wan2018's single J_th."""
-    return wan2018_campaign(out_dir, jobs, quick, schedule=True)
-
-
-def wan2018_campaign_lateral(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
-    """The same campaign with bank and sideslip in the model (``[airdata] lateral_terms``)
-    and J_th scheduled on the declared turbulence: our extensions of Wan2018 together."""
-    return wan2018_campaign(out_dir, jobs, quick, schedule=True, lateral=True)
-
-
-def wan2018_campaign_lateral_only(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
-    """The lateral terms with Wan2018's single J_th and windows: the model change on its
-    own."""
-    return wan2018_campaign(out_dir, jobs, quick, schedule=False, lateral=True)
-
-
-NRZ_OUTPUT_RATIO = -0.9  # "10 % x current value" read as the output: y = 0.1 x, f = -0.9 x
-
-
-def wan2018_campaign_nrz_output(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
-    """The monitor's defaults (lateral terms, one J_th, peers restarted on an isolation) on the
-    same runs, with Table II's non-return to zero read as the sensor *output* falling to 10 %
-    of the value (``f = -0.9 x``) instead of our literal ``f = 0.1 x``: what the ambiguity
-    costs (docs/papers-notes.md)."""
-    return wan2018_campaign(out_dir, jobs, quick, schedule=False, lateral=True,
-                            nrz_ratio=NRZ_OUTPUT_RATIO, restart_peers=True)
+NRZ_LITERAL_GAIN = 0.1  # Table II's "10 % x current value" read as an additive f = 0.1 x
 
 
 def wan2018_campaign_restart(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
@@ -840,18 +815,58 @@ def wan2018_campaign_restart(out_dir: Path, jobs: int = 1, quick: bool = False) 
 
 def wan2018_campaign_extensions(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
     """All our extensions together (lateral terms, J_th scheduled on the declared turbulence,
-    the peers' windows restarted on an isolation, equal weights for the last two instances)
-    with Table II's non-return to zero read literally, on the same runs."""
+    the peers' windows restarted on an isolation, equal weights for the last two instances;
+    ``configs/wan2018_transport_extensions.toml``), on the same runs."""
     return wan2018_campaign(out_dir, jobs, quick, schedule=True, lateral=True,
                             restart_peers=True, equal_pair=True)
 
 
-def wan2018_campaign_extensions_nrz_output(out_dir: Path, jobs: int = 1,
-                                           quick: bool = False) -> str:
-    """All our extensions together (as ``wan2018_campaign_extensions``) with non-return to
-    zero read as the output falling to 10 % of the value, on the same runs."""
+# Table II's non-return to zero read literally (f = 0.1 x): the same set-ups, and the ablations
+# measured with that reading (docs/results.md).
+
+
+def wan2018_campaign_literal_nrz(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
+    """Wan2018's scheme (as ``wan2018_campaign``) with non-return to zero read literally."""
+    return wan2018_campaign(out_dir, jobs, quick, nrz_gain=NRZ_LITERAL_GAIN)
+
+
+def wan2018_campaign_restart_literal_nrz(out_dir: Path, jobs: int = 1,
+                                         quick: bool = False) -> str:
+    """The monitor's defaults (as ``wan2018_campaign_restart``) with non-return to zero read
+    literally."""
+    return wan2018_campaign(out_dir, jobs, quick, schedule=False, lateral=True,
+                            nrz_gain=NRZ_LITERAL_GAIN, restart_peers=True)
+
+
+def wan2018_campaign_extensions_literal_nrz(out_dir: Path, jobs: int = 1,
+                                            quick: bool = False) -> str:
+    """All our extensions (as ``wan2018_campaign_extensions``) with non-return to zero read
+    literally."""
     return wan2018_campaign(out_dir, jobs, quick, schedule=True, lateral=True,
-                            nrz_ratio=NRZ_OUTPUT_RATIO, restart_peers=True, equal_pair=True)
+                            nrz_gain=NRZ_LITERAL_GAIN, restart_peers=True, equal_pair=True)
+
+
+def wan2018_campaign_scheduled_literal_nrz(out_dir: Path, jobs: int = 1,
+                                           quick: bool = False) -> str:
+    """J_th scheduled on the declared turbulence (:func:`threshold_schedule`), our alternative
+    to Wan2018's single J_th, on its own; non-return to zero read literally."""
+    return wan2018_campaign(out_dir, jobs, quick, schedule=True, nrz_gain=NRZ_LITERAL_GAIN)
+
+
+def wan2018_campaign_lateral_literal_nrz(out_dir: Path, jobs: int = 1,
+                                         quick: bool = False) -> str:
+    """Bank and sideslip in the model (``[airdata] lateral_terms``) and J_th scheduled on the
+    declared turbulence; non-return to zero read literally."""
+    return wan2018_campaign(out_dir, jobs, quick, schedule=True, lateral=True,
+                            nrz_gain=NRZ_LITERAL_GAIN)
+
+
+def wan2018_campaign_lateral_only_literal_nrz(out_dir: Path, jobs: int = 1,
+                                              quick: bool = False) -> str:
+    """The lateral terms with Wan2018's single J_th and windows: the model change on its
+    own; non-return to zero read literally."""
+    return wan2018_campaign(out_dir, jobs, quick, schedule=False, lateral=True,
+                            nrz_gain=NRZ_LITERAL_GAIN)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -865,13 +880,14 @@ def experiments() -> dict[str, Callable[[Path, int, bool], str]]:
         "wan2018_fig45": wan2018_fig45,
         "wan2018_fig3": wan2018_fig3,
         "wan2018_campaign": wan2018_campaign,
-        "wan2018_campaign_scheduled": wan2018_campaign_scheduled,
-        "wan2018_campaign_lateral": wan2018_campaign_lateral,
-        "wan2018_campaign_lateral_only": wan2018_campaign_lateral_only,
-        "wan2018_campaign_nrz_output": wan2018_campaign_nrz_output,
         "wan2018_campaign_restart": wan2018_campaign_restart,
         "wan2018_campaign_extensions": wan2018_campaign_extensions,
-        "wan2018_campaign_extensions_nrz_output": wan2018_campaign_extensions_nrz_output,
+        "wan2018_campaign_literal_nrz": wan2018_campaign_literal_nrz,
+        "wan2018_campaign_restart_literal_nrz": wan2018_campaign_restart_literal_nrz,
+        "wan2018_campaign_extensions_literal_nrz": wan2018_campaign_extensions_literal_nrz,
+        "wan2018_campaign_scheduled_literal_nrz": wan2018_campaign_scheduled_literal_nrz,
+        "wan2018_campaign_lateral_literal_nrz": wan2018_campaign_lateral_literal_nrz,
+        "wan2018_campaign_lateral_only_literal_nrz": wan2018_campaign_lateral_only_literal_nrz,
         "wan2018_onspeed": wan2018_onspeed,
         "wan2018_calibration": wan2018_calibration,
     }

@@ -14,7 +14,8 @@ drift      rate_<U>_per_s, [max_<U>]                     clip(r tau, -max, max)
 oscillation amplitude_<U>, frequency_hz, [phase_rad]     A sin(2 pi f tau + phase)
 runaway    rate_<U>_per_s, limit_<U>                     clip(r tau, -limit, limit)
 jam        -                                             replaces y with x(t_start) (stuck)
-nrz        [ratio] (default 0.1)                         ratio x(t) (Wan2018 Table II)
+nrz        [level] (default 0.1) or gain                 (level - 1) x(t): the output falls to
+                                                         level x(t); or gain x(t) (Wan2018 T. II)
 noise      sigma_<U>                                     sigma N(0, 1)
 scale      factor                                        (factor - 1) x(t)
 expr       expr_<U> (string of t, tau)                   eval(expr), e.g. 4*sin(0.5*pi*t)
@@ -23,7 +24,12 @@ expr       expr_<U> (string of t, tau)                   eval(expr), e.g. 4*sin(
 Paper notes
 -----------
 * Wan2018 Table II gives "Non-return to zero: 10% x current value" without further definition.
-  We read it as an additive fault proportional to the current true value, f = 0.1 x(t).
+  We read it as the value the output takes, as the table's jamming row gives the value a vane
+  sticks at: the output falls towards zero but not to it, ``y = 0.1 x(t)`` (``level``), so
+  ``f = -0.9 x(t)``. The name, Fig. 6(b) (three CAS probes with this fault drive the nominal
+  controller into fast AoA transients) and the paper's own MDR 0 % at J_th = 2.9 deg support it
+  (docs/papers-notes.md). The literal additive reading ``f = 0.1 x(t)`` stays available as
+  ``gain`` = 0.1.
 * Chen2020's "fast runaway" of the yaw-rate sensor is a ramp at 0.4 deg/s^2 capped at 5 deg/s;
   ``runaway`` and ``drift`` with ``max`` therefore share one formula; runaway requires the limit.
 """
@@ -40,7 +46,7 @@ import numpy as np
 
 FAULT_KINDS = ("bias", "drift", "oscillation", "runaway", "jam", "nrz", "noise", "scale", "expr")
 REPLACING_KINDS = frozenset({"jam"})
-NRZ_RATIO_DEFAULT = 0.1  # Wan2018 Table II: 10% x current value
+NRZ_LEVEL_DEFAULT = 0.1  # Wan2018 Table II: the output falls to 10% x current value
 
 KIND_PARAMS: dict[str, dict[str, tuple[bool, str]]] = {
     # param stem: (required, unit kind: "u" channel unit, "u/s" channel unit per s, or fixed key)
@@ -53,7 +59,7 @@ KIND_PARAMS: dict[str, dict[str, tuple[bool, str]]] = {
     },
     "runaway": {"rate": (True, "u/s"), "limit": (True, "u")},
     "jam": {},
-    "nrz": {"ratio": (False, "fixed")},
+    "nrz": {"level": (False, "fixed"), "gain": (False, "fixed")},
     "noise": {"sigma": (True, "u")},
     "scale": {"factor": (True, "fixed")},
     "expr": {"expr": (True, "u")},
@@ -123,9 +129,14 @@ def runaway_profile(tau_s: float, rate_per_s: float, limit: float) -> float:
     return drift_profile(tau_s, rate_per_s, abs(limit))
 
 
-def nrz_profile(x_true: float, ratio: float = NRZ_RATIO_DEFAULT) -> float:
-    """Non-return-to-zero: ``ratio x(t)`` (Wan2018 Table II, 10% x current value)."""
-    return ratio * x_true
+def nrz_profile(x_true: float, level: float = NRZ_LEVEL_DEFAULT,
+                gain: float | None = None) -> float:
+    """Non-return to zero (Wan2018 Table II, "10% x current value"): the output falls to
+    ``level x(t)``, so ``f = (level - 1) x(t)``; with ``gain`` the literal additive reading
+    ``f = gain x(t)`` instead."""
+    if gain is not None:
+        return gain * x_true
+    return (level - 1.0) * x_true
 
 
 def scale_profile(x_true: float, factor: float) -> float:
@@ -287,7 +298,9 @@ def additive_value(
     if k == "runaway":
         return runaway_profile(tau_s, s.get("rate"), s.get("limit"))
     if k == "nrz":
-        return nrz_profile(x_true, s.get("ratio", NRZ_RATIO_DEFAULT))
+        gain = s.p().get("gain")
+        return nrz_profile(x_true, s.get("level", NRZ_LEVEL_DEFAULT),
+                           None if gain is None else float(gain))  # type: ignore[arg-type]
     if k == "scale":
         return scale_profile(x_true, s.get("factor"))
     if k == "noise":

@@ -94,7 +94,7 @@ def test_wan2018_generator_deterministic_and_in_ranges() -> None:
             if f.kind == "bias" and f.channel.startswith("cas"):
                 assert 10 * KT2MPS - 1e-9 <= abs(f.get("bias")) <= 200 * KT2MPS + 1e-9
             if f.kind == "nrz":
-                assert f.get("ratio") == 0.1
+                assert f.params == (("level", 0.1),)  # the output falls to 10 %
         # every generated scenario survives the TOML round trip (validation included)
         assert parse_scenario(to_toml(sc), sc.source) == sc
     assert 0 < n_faulty < 40

@@ -67,6 +67,7 @@ limit_kts = 40.0
         (fault('channel="cas0"\nkind="bias"\nt_start_s=5.0\nt_end_s=2.0\nbias_kts=1.0'),
          "t_end_s"),
         (fault('channel="cas0"\nkind="expr"\nt_start_s=1.0\nexpr_kts="import os"'), "expr_kts"),
+        (fault('channel="cas0"\nkind="nrz"\nt_start_s=1.0\nlevel=0.1\ngain=0.1'), "not both"),
         (BASE.replace('"transport"', '"concorde"'), "key 'airframe'"),
         (BASE + "[sensors2]\n", "unknown section"),
         (BASE.replace("n_imu = 2", "n_imu = 4"), "key 'n_imu'"),

@@ -97,15 +97,16 @@ def test_table3_aggregates_max_and_mean() -> None:
 
 
 def test_experiments_registered() -> None:
-    assert {"wan2018_fig45", "wan2018_fig3", "wan2018_campaign", "wan2018_campaign_nrz_output",
+    assert {"wan2018_fig45", "wan2018_fig3", "wan2018_campaign", "wan2018_campaign_literal_nrz",
+            "wan2018_campaign_extensions", "wan2018_campaign_extensions_literal_nrz",
             "wan2018_onspeed", "wan2018_calibration"} <= set(wan2018.experiments())
 
 
 def test_nrz_reading_changes_only_the_nrz_faults() -> None:
-    """The alternative NRZ reading draws no random number: the same runs, the same faults,
-    only the NRZ ratio differs (so its campaign compares like with like)."""
+    """The literal NRZ reading draws no random number: the same runs, the same faults, only
+    the NRZ parameter differs (so its campaign compares like with like)."""
     a = wan2018.campaign_scenarios(40, 0, (60.0, 80.0))
-    b = wan2018.campaign_scenarios(40, 0, (60.0, 80.0), nrz_ratio=wan2018.NRZ_OUTPUT_RATIO)
+    b = wan2018.campaign_scenarios(40, 0, (60.0, 80.0), nrz_gain=wan2018.NRZ_LITERAL_GAIN)
     n_nrz = 0
     for sa, sb in zip(a, b, strict=True):
         assert (sa.duration_s, sa.manoeuvre, sa.wind) == (sb.duration_s, sb.manoeuvre, sb.wind)
@@ -113,8 +114,8 @@ def test_nrz_reading_changes_only_the_nrz_faults() -> None:
             assert (fa.channel, fa.kind, fa.t_start_s) == (fb.channel, fb.kind, fb.t_start_s)
             if fa.kind == "nrz":
                 n_nrz += 1
-                assert dict(fa.params)["ratio"] == pytest.approx(0.1)
-                assert dict(fb.params)["ratio"] == pytest.approx(-0.9)
+                assert fa.params == (("level", 0.1),)  # the output falls to 10 %
+                assert fb.params == (("gain", 0.1),)  # f = 0.1 x
             else:
                 assert fa.params == fb.params
     assert n_nrz > 0
@@ -169,7 +170,7 @@ def test_fault_size_by_hand() -> None:
     assert wan2018.fault_size("oscillation", "amplitude_mps=10;frequency_hz=2") == \
         pytest.approx(10 / np.sqrt(2))
     assert wan2018.fault_size("noise", "sigma_rad=0.02") == pytest.approx(0.02)
-    assert wan2018.fault_size("nrz", "ratio=0.1") is None
+    assert wan2018.fault_size("nrz", "level=0.1") is None
     assert wan2018.fault_size("jam", "") is None
     th = {"aoa": 0.02, "cas": 4.0}
     rows = [[0, "r", "level", "calm", "aoa0", "bias", 10.0, "bias_rad=0.05", "", 1, 0.2, 0, ""],

@@ -43,7 +43,8 @@ DEFINITIONS = {
     "drift": (("rate_mps2_per_s", 0.1), ("max_mps2", 1.5)),
     "oscillation": (("amplitude_mps2", 4.0), ("frequency_hz", 0.25), ("phase_rad", 0.3)),
     "runaway": (("rate_mps2_per_s", -0.4), ("limit_mps2", 5.0)),
-    "nrz": (("ratio", 0.1),),
+    "nrz": (("level", 0.1),),
+    "nrz_gain": (("gain", 0.1),),
     "scale": (("factor", 1.2),),
 }
 
@@ -61,7 +62,9 @@ def expected(kind: str, t: float) -> float:
     if kind == "runaway":
         return max(-0.4 * tau, -5.0)
     if kind == "nrz":
-        return 0.1 * true_x(t)  # Wan2018 Table II: 10% x current value
+        return -0.9 * true_x(t)  # Wan2018 Table II: the output falls to 10% x current value
+    if kind == "nrz_gain":
+        return 0.1 * true_x(t)  # the literal reading: f = 0.1 x
     if kind == "scale":
         return 0.2 * true_x(t)
     raise KeyError(kind)
@@ -69,10 +72,19 @@ def expected(kind: str, t: float) -> float:
 
 @pytest.mark.parametrize("kind", sorted(DEFINITIONS))
 def test_additive_fault_equals_definition(kind: str) -> None:
-    spec = FaultSpec("imu0.acc.x", kind, T0, T1, DEFINITIONS[kind])
+    spec = FaultSpec("imu0.acc.x", kind.split("_")[0], T0, T1, DEFINITIONS[kind])
     f, _ = applied(spec)
     ref = np.array([expected(kind, float(t)) for t in TIMES])
     np.testing.assert_allclose(f, ref, atol=1e-12)  # same formula, float64 round-off only
+
+
+def test_nrz_output_is_a_tenth_of_the_true_value() -> None:
+    """Wan2018 Table II's non-return to zero: the measurement falls to 10 % of the value."""
+    _, y = applied(FaultSpec("cas1", "nrz", T0, T1))  # level 0.1 by default
+    inside = np.array([window(float(t)) for t in TIMES])
+    x = np.array([true_x(float(t)) for t in TIMES])
+    np.testing.assert_allclose(y[inside], 0.1 * x[inside], atol=1e-12)
+    np.testing.assert_allclose(y[~inside], x[~inside])
 
 
 def test_jam_holds_true_value_at_fault_start() -> None:
