@@ -74,7 +74,7 @@ def _eq(x: Any, y: Any) -> bool:
     if isinstance(x, float) and isinstance(y, float):
         return x == y or (x != x and y != y)
     if isinstance(x, (tuple, list)) and isinstance(y, (tuple, list)):
-        return len(x) == len(y) and all(_eq(p, q) for p, q in zip(x, y))
+        return len(x) == len(y) and all(_eq(p, q) for p, q in zip(x, y, strict=False))
     if isinstance(x, dict) and isinstance(y, dict):
         return x.keys() == y.keys() and all(_eq(x[k], y[k]) for k in x)
     return bool(x == y)
@@ -103,9 +103,9 @@ def compare(a: dict[str, Any], b: dict[str, Any], atol: float) -> bool:
             print(f"{name}: {len(ea)} vs {len(eb)} estimates")
             ok = False
             continue
-        meta = all(_eq(x[:4], y[:4]) for x, y in zip(ea, eb))
+        meta = all(_eq(x[:4], y[:4]) for x, y in zip(ea, eb, strict=False))
         md = {"faults": 0.0, "residuals": 0.0, "virtual": 0.0, "states": 0.0}
-        for x, y in zip(ea, eb):
+        for x, y in zip(ea, eb, strict=False):
             for i, k in ((4, "faults"), (5, "residuals"), (6, "virtual")):
                 md[k] = max(md[k], _diff(x[i], y[i]))
             if set(x[7]) != set(y[7]):
@@ -120,9 +120,9 @@ def compare(a: dict[str, Any], b: dict[str, Any], atol: float) -> bool:
     print(f"set statuses identical: {same} ({len(a['sets'])})")
     if not same and len(a["sets"]) == len(b["sets"]):
         flags = all(x[0] == y[0] and x[1] == y[1] and x[7] == y[7] and x[8] == y[8]
-                    for x, y in zip(a["sets"], b["sets"]))
+                    for x, y in zip(a["sets"], b["sets"], strict=False))
         m = max(max(_diff(x[i], y[i]) for i in (2, 3, 4, 5, 6))
-                for x, y in zip(a["sets"], b["sets"]))
+                for x, y in zip(a["sets"], b["sets"], strict=False))
         print(f"  decisions identical: {flags}, values max |diff| {m:.3g}")
         ok &= flags and m <= atol
     elif not same:
@@ -134,8 +134,8 @@ def compare(a: dict[str, Any], b: dict[str, Any], atol: float) -> bool:
                 print(f"channel {k}: {len(ca)} vs {len(cb)} statuses")
                 ok = False
                 continue
-            m = max(_diff(x[1:3], y[1:3]) for x, y in zip(ca, cb))
-            flags = all(x[0] == y[0] and x[3] == y[3] for x, y in zip(ca, cb))
+            m = max(_diff(x[1:3], y[1:3]) for x, y in zip(ca, cb, strict=False))
+            flags = all(x[0] == y[0] and x[3] == y[3] for x, y in zip(ca, cb, strict=False))
             print(f"channel {k}: values max |diff| {m:.3g}, decisions identical: {flags}")
             ok &= flags and m <= atol
     same = _eq(a["health"], b["health"])

@@ -161,8 +161,9 @@ def _print_summary(monitor: Any, wall_s: float) -> None:
         lk = v["link"]
         if not lk["per_type"]:
             continue
-        print(f"vehicle {sysid}: {lk['messages']} msgs, lost {lk['lost']} ({lk['loss_pct']:.2f} %), "
-              f"reboots {lk['reboots']}, bad values {sum(lk['bad_values'].values())}, "
+        print(f"vehicle {sysid}: {lk['messages']} msgs, lost {lk['lost']} "
+              f"({lk['loss_pct']:.2f} %), reboots {lk['reboots']}, "
+              f"bad values {sum(lk['bad_values'].values())}, "
               f"vehicle time {v['vehicle_time_s']:.1f} s")
         for name, status in v["estimators"].items():
             print(f"  {name:26s} {status}")
@@ -315,7 +316,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="folder for tables, CSVs and plots (default eval_out)")
     s.add_argument("--config", type=Path, help="monitor TOML for --preset-set campaigns")
     s.set_defaults(func=cmd_evaluate)
-    s = sub.add_parser("convert", help="convert real flight data (Zipline/OnSpeed/ALFA CSV) to .tlog")
+    s = sub.add_parser("convert",
+                       help="convert real flight data (Zipline/OnSpeed/ALFA CSV) to .tlog")
     s.add_argument("inputs", nargs="+", type=Path)
     s.add_argument("--out", type=Path, default=Path("converted"))
     s.add_argument("--inject", choices=["none", "lu2016"], default="none",

@@ -81,7 +81,8 @@ def run_demo(out: Path, *, preset: str = "demo_airdata_faults") -> int:
     sc = load_scenario(preset)
     print(f"[1/3] simulating '{preset}' ({sc.duration_s:.0f} s, {sc.airframe}) -> {out}/")
     res = run_scenario(sc, out, progress=True)
-    print(f"      {sum(res.counts.values())} MAVLink messages, {res.realtime_factor:.0f}x real time")
+    print(f"      {sum(res.counts.values())} MAVLink messages, "
+          f"{res.realtime_factor:.0f}x real time")
     journal_path = out / "alarms.jsonl"
     journal_path.unlink(missing_ok=True)
     rrd = out / "recording.rrd"

@@ -271,13 +271,13 @@ class VehiclePipeline:
                 if ev:
                     out.events += ev
             elif self.channel_status:
-                for mon, value in zip(bank[1], faults.values()):
+                for mon, value in zip(bank[1], faults.values(), strict=False):
                     st, ev = mon.step(t_us, value, judged)
                     out.channels.append(st)
                     if ev:
                         out.events += ev
             else:
-                for mon, value in zip(bank[1], faults.values()):
+                for mon, value in zip(bank[1], faults.values(), strict=False):
                     ev = mon.update(t_us, value, judged)
                     if ev:
                         out.events += ev
@@ -321,9 +321,9 @@ class VehiclePipeline:
         aoa = _floats(frame.aoa_rad)[:n_a]
         cas = _floats(frame.cas_mps)[:n_c]
         aoa_valid = [math.isfinite(x) and a < stale
-                     for x, a in zip(aoa, _floats(frame.aoa_age_s))]
+                     for x, a in zip(aoa, _floats(frame.aoa_age_s), strict=False)]
         cas_valid = [math.isfinite(x) and a < stale
-                     for x, a in zip(cas, _floats(frame.cas_age_s))]
+                     for x, a in zip(cas, _floats(frame.cas_age_s), strict=False)]
         # eq. 17 against the prediction for this sample; the MHE step below uses the eq. 19 fusion
         aoa_ref = pred[0] if pred is not None and math.isfinite(pred[0]) else None
         cas_ref = pred[1] if pred is not None and math.isfinite(pred[1]) else None

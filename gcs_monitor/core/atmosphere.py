@@ -18,7 +18,8 @@ def isa_temperature_k(alt_m: float) -> float:
 
 
 def isa_pressure_ratio(alt_m: float) -> float:
-    """Static pressure over sea-level pressure, p_bar = (1 + L z / T0)^(-g/(R L)) (Wan2018 eq. 16)."""
+    """Static pressure over sea-level pressure, p_bar = (1 + L z / T0)^(-g/(R L))
+    (Wan2018 eq. 16)."""
     return (1.0 + c.ISA_LAPSE_KPM * alt_m / c.ISA_T0_K) ** _GAS_EXP
 
 
@@ -76,4 +77,5 @@ def gravity_mps2(lat_rad: float, alt_m: float) -> float:
     s = math.sin(lat_rad)
     s2 = math.sin(2.0 * lat_rad)
     ratio = c.EARTH_RADIUS_M / (c.EARTH_RADIUS_M + alt_m)
-    return c.GRAVITY_EQUATOR_MPS2 * ratio * ratio * (1.0 + c.GRAVITY_LAT_K1 * s * s - c.GRAVITY_LAT_K2 * s2 * s2)
+    return c.GRAVITY_EQUATOR_MPS2 * ratio * ratio * (1.0 + c.GRAVITY_LAT_K1 * s * s
+                                                     - c.GRAVITY_LAT_K2 * s2 * s2)

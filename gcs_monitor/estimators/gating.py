@@ -34,7 +34,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from enum import Enum
+from enum import StrEnum
 
 import numpy as np
 
@@ -129,7 +129,7 @@ def step_bound(s_diag: Sequence[float], extra_input_var: Sequence[float], dt_s: 
     return gate_sigma * math.sqrt(noise) + dt_s * fault_step_max
 
 
-class GateDecision(str, Enum):
+class GateDecision(StrEnum):
     ACCEPT = "accept"
     REJECT = "reject"  # velocity not used this sample (predict with the IMU only)
     REANCHOR = "reanchor"  # velocity states set to the measurement, fault estimates kept

@@ -12,8 +12,9 @@ from collections.abc import Callable
 from pathlib import Path
 
 Experiment = Callable[[Path, int, bool], str]
-MODULES = ("gcs_monitor.evaluation.sim_checks", "gcs_monitor.evaluation.imu", "gcs_monitor.evaluation.imu_real",
-           "gcs_monitor.evaluation.wan2018", "gcs_monitor.evaluation.harness")
+MODULES = ("gcs_monitor.evaluation.sim_checks", "gcs_monitor.evaluation.imu",
+           "gcs_monitor.evaluation.imu_real", "gcs_monitor.evaluation.wan2018",
+           "gcs_monitor.evaluation.harness")
 
 
 def experiments() -> dict[str, Experiment]:

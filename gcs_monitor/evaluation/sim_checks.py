@@ -61,7 +61,8 @@ def dryden_psd_check(hours: float = 2.0, seed: int = 1) -> str:
         ratios = [float(np.mean(p_omega[m, i]) / np.mean(model[i][m])) for i in range(3)]
         rows.append([f"{lo:.2f}-{hi:.2f}"] + [f"{r:.2f}" for r in ratios])
     return _md(["ω band [rad/s]", "Φ_u sim/eq.21", "Φ_v sim/eq.22", "Φ_w sim/eq.23"], rows) + \
-        f"\n\n({hours:g} h record at V = {tas} m/s, σ = {sigma} m/s, L = {scale} m; target ratio 0.7-1.3)"
+        (f"\n\n({hours:g} h record at V = {tas} m/s, σ = {sigma} m/s, L = {scale} m; "
+         "target ratio 0.7-1.3)")
 
 
 def eq11_consistency() -> str:
@@ -106,7 +107,8 @@ def eq11_consistency() -> str:
 
 
 def sensor_noise(seconds: float = 60.0) -> str:
-    """Measured noise std per sensor group against the tables (Lu2016 Table 1, Atmaca2025 Table 1)."""
+    """Measured noise std per sensor group against the tables (Lu2016 Table 1, Atmaca2025
+    Table 1)."""
     from sim_vehicle.sensors.noise import ATMACA2025, LU2016
     from sim_vehicle.sensors.suite import SensorSuite, group_sigma, true_values
     from sim_vehicle.state import TrueState

@@ -16,13 +16,13 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from enum import Enum
+from enum import StrEnum
 
 from gcs_monitor.core.types import ChannelId
 from gcs_monitor.fdi.events import AlarmEvent, AlarmKind, AlarmState, FaultType
 
 
-class ChannelAlarm(str, Enum):
+class ChannelAlarm(StrEnum):
     """State of one channel's alarm."""
 
     NORMAL = "normal"

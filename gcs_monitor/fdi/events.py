@@ -3,18 +3,18 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from enum import Enum
+from enum import StrEnum
 
 from gcs_monitor.core.types import ChannelId
 
 
-class AlarmState(str, Enum):
+class AlarmState(StrEnum):
     RAISED = "raised"
     UPDATED = "updated"
     CLEARED = "cleared"
 
 
-class AlarmKind(str, Enum):
+class AlarmKind(StrEnum):
     SENSOR_FAULT = "sensor_fault"
     ACTUATOR_FAULT = "actuator_fault"
     SET_LOST = "set_lost"  # every instance of a redundant set is faulty (Wan2018 Table I)
@@ -22,7 +22,7 @@ class AlarmKind(str, Enum):
     ESTIMATOR = "estimator"  # estimator numerics / unavailable inputs
 
 
-class FaultType(str, Enum):
+class FaultType(StrEnum):
     UNKNOWN = "unknown"
     BIAS = "bias"
     DRIFT = "drift"

@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from enum import Enum
+from enum import StrEnum
 
 
 def rms_floor_from_noise(noise_sigma: float) -> float:
@@ -128,7 +128,7 @@ def majority_vote(
     return out
 
 
-class OutputConfiguration(str, Enum):
+class OutputConfiguration(StrEnum):
     """Wan2018 Table I: which fused air-data outputs enter the estimator's output (20d).
 
     The table, read column by column (its layout is garbled in the text copy, the rows are

@@ -148,13 +148,13 @@ def jacobians(x, u, lat_rad, alt_m, F, G):
     G[1, 0] = -(cth * sps)
     G[1, 1] = -(sph * sth * sps + cph * cps)
     G[1, 2] = -(cph * sth * sps - sph * cps)
-    G[2, 0] = -(-sth)
+    G[2, 0] = sth
     G[2, 1] = -(sph * cth)
     G[2, 2] = -(cph * cth)
     G[3, 3] = -1.0
     G[3, 4] = -(sph * sth / cth)
     G[3, 5] = -(cph * sth / cth)
     G[4, 4] = -cph
-    G[4, 5] = -(-sph)
+    G[4, 5] = sph
     G[5, 4] = -(sph / cth)
     G[5, 5] = -(cph / cth)

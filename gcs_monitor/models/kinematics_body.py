@@ -288,12 +288,14 @@ def drift_rate_to_fault(drift_rate: Vec, x: Vec, *, mapping: str = "exact") -> V
     """IMU fault estimate from the HOSM derivative ``z_1`` (Atmaca2025 eqs. 46, 51).
 
     ``mapping="exact"`` (default): ``d mu / dt = A(x) f`` for a drift of the model with
-    ``f_hat = 0`` (eq. 20 as printed); the fault is ``A(x)^{-1} z_1`` (:func:`fault_from_drift_rate`).
+    ``f_hat = 0`` (eq. 20 as printed); the fault is ``A(x)^{-1} z_1``
+    (:func:`fault_from_drift_rate`).
     (The estimator applies the same linear map to each drift increment before differentiating,
     ``estimators/imu_hosm.py``, so that its ``z_1`` is the fault itself.)
 
     ``mapping="flat"`` (``z_1 / D``) and ``"paper"`` (``z_1``, eq. 51 as printed) are for the
-    drift of eqs. 9-14 *with* ``f_hat`` in the cross terms. Both assume ``d mu / dt = D f``, which holds only at ``f_hat = f``; otherwise
+    drift of eqs. 9-14 *with* ``f_hat`` in the cross terms. Both assume ``d mu / dt = D f``,
+    which holds only at ``f_hat = f``; otherwise
     ``d mu / dt = D f_hat + A (f - f_hat)``, so in a bank (``A`` not diagonal) the gyro estimates
     feed back through the ``sin phi`` terms of eqs. 13-14 with loop gain ``tan phi`` (and into
     eqs. 9-11 times the ground speed). Measured in a 30 deg coordinated turn: a sustained ~1 Hz

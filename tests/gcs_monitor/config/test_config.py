@@ -22,7 +22,8 @@ def test_defaults_run_without_a_file():
 
 
 def test_units_converted_once(tmp_path):
-    c = load_config(_write(tmp_path, "[fdi.aoa]\nthreshold_deg = 2.0\n[fdi.cas]\nthreshold_kts = 10\n"))
+    c = load_config(_write(tmp_path,
+                           "[fdi.aoa]\nthreshold_deg = 2.0\n[fdi.cas]\nthreshold_kts = 10\n"))
     assert c.fdi.aoa.threshold == pytest.approx(math.radians(2.0), rel=1e-12)
     assert c.fdi.cas.threshold == pytest.approx(10 * 1852 / 3600, rel=1e-12)
 
@@ -54,7 +55,8 @@ def test_imu_hosm_thresholds_are_their_own_keys(tmp_path):
          r"'fdi.acc_hosm.threshold_mps2' must be a positive"),
         ("[fdi.acc_hosm]\nn_detect = 60\n", r"must not exceed n_eval"),
         ("[fdi.aoa]\nstuck_window_s = 0.1\n", r"'fdi.aoa.stuck_window_s' must be 0 \(off\)"),
-        ("[fdi.cas]\nno_data_window_s = -1\n", r"'fdi.cas.no_data_window_s' must be a non-negative number"),
+        ("[fdi.cas]\nno_data_window_s = -1\n",
+         r"'fdi.cas.no_data_window_s' must be a non-negative number"),
         ("[airdata]\nwind_mps = 3\n", r"unknown key 'airdata.wind_mps'"),
         ("[airdata]\nturbulence_sigma_kts = -1\n", r"must be a non-negative number"),
         ("[airdata]\nwind_accel_in_alpha = 1\n", r"must be true or false"),
@@ -135,7 +137,8 @@ def test_airdata_model_switch_reaches_the_estimator(tmp_path):
 def test_stuck_window_reaches_the_set_monitor(tmp_path):
     from gcs_monitor.pipeline import AIR_DT_S, set_params
 
-    c = load_config(_write(tmp_path, "[fdi.cas]\nstuck_window_s = 0\n[fdi.aoa]\nstuck_window_s = 3\n"))
+    c = load_config(_write(tmp_path,
+                           "[fdi.cas]\nstuck_window_s = 0\n[fdi.aoa]\nstuck_window_s = 3\n"))
     assert set_params("cas", c.fdi.cas, AIR_DT_S).stuck_n == 0  # off: the Wan2018 scheme
     assert set_params("aoa", c.fdi.aoa, AIR_DT_S).stuck_n == 60  # 3 s at 20 Hz
     assert set_params("aoa", load_config(None).fdi.aoa, AIR_DT_S).stuck_n == 10  # default 0.5 s

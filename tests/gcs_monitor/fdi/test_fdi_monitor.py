@@ -296,9 +296,9 @@ def test_channel_bank_equals_channel_monitors(latch: bool) -> None:
     conf = ConfirmationParams(latch=latch)
     params = [ChannelMonitorParams(threshold=th, noise_sigma=0.05, runaway_rate_per_s=1.0,
                                    confirmation=conf) for th in (0.3, 0.3, 0.5, 0.01)]
-    ref = [ChannelMonitor(c, p, estimator="imu_ts") for c, p in zip(chans, params)]
+    ref = [ChannelMonitor(c, p, estimator="imu_ts") for c, p in zip(chans, params, strict=False)]
     bank = ChannelBank.create([ChannelMonitor(c, p, estimator="imu_ts")
-                               for c, p in zip(chans, params)])
+                               for c, p in zip(chans, params, strict=False)])
     if bank is None:
         pytest.skip("numba not installed")
     rng = np.random.default_rng(7)
