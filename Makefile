@@ -12,11 +12,15 @@ $(VENV)/.installed: pyproject.toml
 	$(PY) -m pip install -q -e '.[test]'
 	touch $@
 
+$(VENV)/.installed-dev: $(VENV)/.installed
+	$(PY) -m pip install -q -e '.[dev]'
+	touch $@
+
 $(VENV)/.installed-bench: $(VENV)/.installed
 	$(PY) -m pip install -q -e '.[test,bench]'
 	touch $@
 
-.PHONY: demo test test-slow test-browser bench install chromium
+.PHONY: demo test test-slow test-browser bench lint install chromium
 install: $(VENV)/.installed
 
 demo: $(VENV)/.installed
@@ -37,3 +41,7 @@ chromium:
 
 bench: $(VENV)/.installed-bench
 	$(PY) benchmarks/run_all.py
+
+# ruff with the project's rules (pyproject [tool.ruff]); not part of `make test`
+lint: $(VENV)/.installed-dev
+	$(VENV)/bin/ruff check gcs_monitor sim_vehicle dashboards benchmarks tests
