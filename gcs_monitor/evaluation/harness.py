@@ -408,7 +408,7 @@ def run_records(scenarios: Sequence[Any], cfg: MonitorConfig, jobs: int, *,
     work = [(i, sc, cfg, i == ex) for i, sc in enumerate(scenarios)]
     bar: Any = None
     if progress:
-        from tqdm import tqdm  # type: ignore[import-untyped]
+        from tqdm import tqdm
 
         bar = tqdm(total=len(work), unit="run", desc=desc)
     records: list[RunRecord] = []

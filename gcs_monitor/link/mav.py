@@ -7,6 +7,6 @@ import os
 os.environ["MAVLINK20"] = "1"
 os.environ.setdefault("MAVLINK_DIALECT", "ardupilotmega")
 
-from pymavlink.dialects.v20 import ardupilotmega as mavlink  # type: ignore[import-untyped]  # noqa: E402, E501
+from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
 
 __all__ = ["mavlink"]
