@@ -54,7 +54,7 @@ def make_simulation(sc: Scenario, *, feedback: FeedbackHook | None = None) -> Si
     """
     from sim_vehicle import physics  # late: physics is heavy and optional for sensor-only use
 
-    return physics.Simulation(  # type: ignore[no-any-return]
+    return physics.Simulation(
         sc.airframe,
         physics.InitialCondition(**asdict(sc.initial)),
         physics.WindConfig(**asdict(sc.wind)),

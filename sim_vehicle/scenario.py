@@ -251,7 +251,7 @@ def _read_wind(t: _Table) -> WindSpec:
         raise t.err("mean_ned_mps", "expected a list of 3 numbers [N, E, D]")
     out = WindSpec(
         kind=kind,
-        mean_ned_mps=mean,  # type: ignore[arg-type]
+        mean_ned_mps=mean,
         turbulence_sigma_mps=t.take_unit("turbulence_sigma", "speed", d.turbulence_sigma_mps),
         turbulence_scale_m=t.take_unit("turbulence_scale", "length", d.turbulence_scale_m),
         shear_start_s=t.take("shear_start_s", float, d.shear_start_s),

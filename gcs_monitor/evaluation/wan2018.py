@@ -185,7 +185,7 @@ def _series_run(job: tuple[Any, MonitorConfig] | tuple[Any, MonitorConfig, bool]
     """One run with series; a third job entry False keeps ``cfg.airdata`` instead of the
     scenario's declared weather."""
     sc, cfg = job[0], job[1]
-    declare = job[2] if len(job) > 2 else True  # type: ignore[misc]
+    declare = job[2] if len(job) > 2 else True
     return run_one(0, sc, cfg, keep_series=True, declare_weather=declare)
 
 

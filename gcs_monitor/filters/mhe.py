@@ -511,7 +511,7 @@ class _Kernels(Protocol):
 
 def compiled_kernel() -> _Kernels | None:
     """The numba kernels module (``filters/_mhe_jit.py``), or None when numba is not installed."""
-    return optional_module("gcs_monitor.filters._mhe_jit")  # type: ignore[return-value]
+    return optional_module("gcs_monitor.filters._mhe_jit")
 
 
 def _step_compiled(

@@ -335,4 +335,4 @@ class _Kernels(Protocol):
 
 def _kernels() -> _Kernels | None:
     """The numba kernels module, imported on first use (None if numba is not installed)."""
-    return optional_module("gcs_monitor.filters._otsekf_jit")  # type: ignore[return-value]
+    return optional_module("gcs_monitor.filters._otsekf_jit")

@@ -113,4 +113,4 @@ class _Kernels(Protocol):
 
 def _kernels() -> _Kernels | None:
     """The numba kernel module, imported on first use (None if numba is not installed)."""
-    return optional_module("gcs_monitor.filters._sliding_mode_jit")  # type: ignore[return-value]
+    return optional_module("gcs_monitor.filters._sliding_mode_jit")

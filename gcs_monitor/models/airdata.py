@@ -340,7 +340,7 @@ class CompiledAirData(Protocol):
 
 def compiled_kernels() -> CompiledAirData | None:
     """The numba version of this model, imported on first use (None if numba is missing)."""
-    return optional_module("gcs_monitor.models._airdata_jit")  # type: ignore[return-value]
+    return optional_module("gcs_monitor.models._airdata_jit")
 
 
 # ------------------------------------------------------------------------------------------------

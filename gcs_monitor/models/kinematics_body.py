@@ -342,4 +342,4 @@ class CompiledBodyGs(Protocol):
 
 def compiled_kernels() -> CompiledBodyGs | None:
     """The numba versions of this model, imported on first use (None if numba is missing)."""
-    return optional_module("gcs_monitor.models._kinematics_body_jit")  # type: ignore[return-value]
+    return optional_module("gcs_monitor.models._kinematics_body_jit")
