@@ -263,7 +263,7 @@ def _set_config(name: str, data: dict[str, Any], src: str) -> SetConfig:
             raise ConfigError(f"{src}: '{k}' in [fdi.{name}]: the threshold of this set is given "
                               f"as '{thr_key}' (and its growth with the declared turbulence as "
                               f"'{slope_key}')")
-    default = getattr(FdiConfig(), name)
+    default: SetConfig = getattr(FdiConfig(), name)
     threshold = default.threshold
     if thr_key in data:
         raw = data.pop(thr_key)

@@ -6,6 +6,7 @@ The CAS conversion is Wan2018 eq. 16 (subsonic compressible pitot-static relatio
 from __future__ import annotations
 
 import math
+from typing import cast
 
 from gcs_monitor.core import constants as c
 
@@ -20,7 +21,7 @@ def isa_temperature_k(alt_m: float) -> float:
 def isa_pressure_ratio(alt_m: float) -> float:
     """Static pressure over sea-level pressure, p_bar = (1 + L z / T0)^(-g/(R L))
     (Wan2018 eq. 16)."""
-    return (1.0 + c.ISA_LAPSE_KPM * alt_m / c.ISA_T0_K) ** _GAS_EXP
+    return cast(float, (1.0 + c.ISA_LAPSE_KPM * alt_m / c.ISA_T0_K) ** _GAS_EXP)
 
 
 def isa_pressure_pa(alt_m: float) -> float:
@@ -35,7 +36,8 @@ def isa_density_kgpm3(alt_m: float) -> float:
 
 def pressure_altitude_m(p_pa: float) -> float:
     """Inverse of :func:`isa_pressure_pa`."""
-    return c.ISA_T0_K / c.ISA_LAPSE_KPM * ((p_pa / c.ISA_P0_PA) ** (1.0 / _GAS_EXP) - 1.0)
+    return cast(float,
+                c.ISA_T0_K / c.ISA_LAPSE_KPM * ((p_pa / c.ISA_P0_PA) ** (1.0 / _GAS_EXP) - 1.0))
 
 
 def speed_of_sound_mps(temp_k: float) -> float:
@@ -69,7 +71,7 @@ def tas_from_cas(cas_mps: float, alt_m: float, temp_k: float | None = None) -> f
 def impact_pressure_pa(cas_mps: float) -> float:
     """Impact (pitot minus static) pressure for a calibrated airspeed."""
     k = 5.0 * c.ISA_GAMMA * c.ISA_R_JPKGK
-    return c.ISA_P0_PA * ((1.0 + cas_mps * cas_mps / (k * c.ISA_T0_K)) ** 3.5 - 1.0)
+    return cast(float, c.ISA_P0_PA * ((1.0 + cas_mps * cas_mps / (k * c.ISA_T0_K)) ** 3.5 - 1.0))
 
 
 def gravity_mps2(lat_rad: float, alt_m: float) -> float:

@@ -37,6 +37,7 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 
@@ -339,7 +340,7 @@ class ImuHosmEstimator:
         else:
             self._f_int = self._f_int + fault_from_drift_rate(filt.mu - mu_prev, x_prev)
         self._hosm = hosm_step(self._hosm, self._f_int, self._lambdas, dt_s, compiled=compiled)
-        return self._hosm.z[1].copy()
+        return cast(Vec, self._hosm.z[1].copy())
 
     def _estimate(self, t_us: int, st: _Step, nu: Vec, ratio: Vec, ok: bool) -> Estimate:
         assert self._filt is not None

@@ -30,7 +30,7 @@ from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -261,7 +261,7 @@ def rmse(err: np.ndarray, mask: np.ndarray) -> np.ndarray:
     e = err[mask] * REPORT_SCALE
     if e.size == 0:
         return np.full(6, math.nan)
-    return np.sqrt(np.nanmean(e * e, axis=0))
+    return cast(np.ndarray, np.sqrt(np.nanmean(e * e, axis=0)))
 
 
 # ------------------------------------------------------------------------------------------------

@@ -20,7 +20,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -590,8 +590,8 @@ class ChannelBank:
             count, idx = int(ist[self._kern.HIST_COUNT]), int(ist[self._kern.HIST_IDX])
             row = self._hist[c]
             if count < n:
-                return row[:count].tolist()
-            return row[idx:].tolist() + row[:idx].tolist()
+                return cast(list[float], row[:count].tolist())
+            return cast(list[float], row[idx:].tolist() + row[:idx].tolist())
         return ordered
 
     def update(self, t_us: int, values: Sequence[float], valid: bool,

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Protocol, cast
 
 import numpy as np
 
@@ -140,7 +140,7 @@ def cas_from_tas_with_derivative(tas_mps: float, alt_m: float) -> tuple[float, f
 def tas_approx(x: Vec, theta_p: Vec) -> float:
     """True airspeed from the wind triangle with V_g >> wind (Wan2018 eq. 11)."""
     d = x[IX_AOA] - theta_p[IT_THETA]
-    return theta_p[IT_VG] - x[IX_WX] * math.cos(d) - x[IX_WZ] * math.sin(d)
+    return cast(float, theta_p[IT_VG] - x[IX_WX] * math.cos(d) - x[IX_WZ] * math.sin(d))
 
 
 def airdata_derivative(x: Vec, theta_p: Vec, p: AirDataModelParams) -> Vec:

@@ -17,6 +17,7 @@ Thrust acts along body x through the centre of gravity.
 from __future__ import annotations
 
 import math
+from typing import cast
 
 from sim_vehicle.dynamics.airframe import Airframe
 
@@ -61,7 +62,8 @@ class AeroModel:
     ) -> float:
         pr = self.prop
         if self.jet:
-            return throttle * pr.max_thrust_n * (rho_kgpm3 / rho0_kgpm3) ** pr.density_exponent
+            return cast(float, throttle * pr.max_thrust_n
+                        * (rho_kgpm3 / rho0_kgpm3) ** pr.density_exponent)
         k = pr.k_motor_mps * throttle
         return 0.5 * rho_kgpm3 * pr.s_prop_m2 * pr.c_prop * (k * k - tas_mps * tas_mps)
 

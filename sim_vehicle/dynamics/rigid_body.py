@@ -27,6 +27,7 @@ checked to 1e-12 by a test).
 from __future__ import annotations
 
 import math
+from typing import cast
 
 from gcs_monitor.core import constants as k
 from sim_vehicle.dynamics.aero import AeroModel
@@ -39,7 +40,7 @@ _GAS_EXP = -k.GRAVITY_STD_MPS2 / (k.ISA_R_JPKGK * k.ISA_LAPSE_KPM)
 def isa_density_fast(h_m: float) -> float:
     """ISA troposphere density (same as gcs_monitor.core.atmosphere.isa_density_kgpm3)."""
     t = k.ISA_T0_K + k.ISA_LAPSE_KPM * h_m
-    return k.ISA_P0_PA * (t / k.ISA_T0_K) ** _GAS_EXP / (k.ISA_R_JPKGK * t)
+    return cast(float, k.ISA_P0_PA * (t / k.ISA_T0_K) ** _GAS_EXP / (k.ISA_R_JPKGK * t))
 
 
 def gravity_fast(lat: float, h: float) -> float:

@@ -33,6 +33,7 @@ airspeed changes by more than ``REDISCRETISE_REL`` (2 %).
 from __future__ import annotations
 
 import math
+from typing import cast
 
 import numpy as np
 from scipy.linalg import expm
@@ -155,7 +156,7 @@ class DrydenTurbulence:
 def _stationary_cov(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     from scipy.linalg import solve_continuous_lyapunov
 
-    return solve_continuous_lyapunov(a, -b @ b.T)
+    return cast(np.ndarray, solve_continuous_lyapunov(a, -b @ b.T))
 
 
 def shear_ned_mps(

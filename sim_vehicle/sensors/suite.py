@@ -114,7 +114,7 @@ class _Group:
             if self.scaled:
                 self._block *= self.sigma
             self._row = 0
-        row = self._block[self._row]
+        row: Vec = self._block[self._row]
         self._row += 1
         return row
 
