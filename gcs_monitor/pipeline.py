@@ -289,11 +289,11 @@ class VehiclePipeline:
             self._last_sets = out.sets
         elif self._airdata_estimate is not None:
             out.estimates.append(self._airdata_estimate)
-        for ev in out.events:
-            if ev.state.value == "cleared":
-                self.active.pop(ev.channel, None)
+        for event in out.events:
+            if event.state.value == "cleared":
+                self.active.pop(event.channel, None)
             else:
-                self.active[ev.channel] = ev
+                self.active[event.channel] = event
         for sink in self.sinks:
             sink.publish(frame, out.estimates, out.events, out.sets, out.channels)
         return out
