@@ -47,12 +47,12 @@ def summary_rows(events: list[AlarmEvent], faults: list[dict[str, Any]]) -> list
             rows.append([str(f["channel"]), str(f["kind"]), f"{t0:.1f}", "not monitored", "", ""])
             continue
         faulty.add(ch)
-        ev = raised.get(ch)
-        if ev is None:
+        hit = raised.get(ch)
+        if hit is None:
             rows.append([str(ch), str(f["kind"]), f"{t0:.1f}", "MISSED", "", ""])
         else:
             rows.append([str(ch), str(f["kind"]), f"{t0:.1f}", "detected",
-                         f"{ev.t_us / 1e6 - t0:.2f}", ev.fault_type.value])
+                         f"{hit.t_us / 1e6 - t0:.2f}", hit.fault_type.value])
     for ch, ev in sorted(raised.items(), key=lambda kv: kv[1].t_us):
         if ch not in faulty:
             rows.append([str(ch), "(none)", "", "FALSE ALARM", f"t={ev.t_us / 1e6:.2f}",
