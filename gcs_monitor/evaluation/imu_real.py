@@ -106,10 +106,10 @@ def zipline_noise(paths: list[Path]) -> tuple[Lu2016Table1, dict[str, float]]:
     acc, gyr, eul, vel, eul_fl = [], [], [], [], []
     for p in paths:
         d = _zipline_csv(p)
-        st = d["t"] < STATIONARY_BEFORE_S
-        acc.append(np.nanstd(d["f"][st], axis=0))
-        gyr.append(np.nanstd(d["w"][st], axis=0))
-        eul.append(np.nanstd(d["e"][st], axis=0))
+        still = d["t"] < STATIONARY_BEFORE_S
+        acc.append(np.nanstd(d["f"][still], axis=0))
+        gyr.append(np.nanstd(d["w"][still], axis=0))
+        eul.append(np.nanstd(d["e"][still], axis=0))
         fl = (d["t"] > LAUNCH_SETTLE_S) & ~((d["t"] >= RESET_S[0] - 0.1) & (d["t"] <= RESET_S[1]))
         idx = np.nonzero(fl[1:] & fl[:-1])[0] + 1
         dt = np.diff(d["t"])[idx - 1]
