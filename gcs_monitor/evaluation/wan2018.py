@@ -570,7 +570,7 @@ def campaign_markdown(res: dict[str, Any], n_runs: int, n_cal: int,
         "Table IV (FDI):",
         "",
     ]
-    rows = []
+    rows: list[list[Any]] = []
     for g in ("aoa", "cas"):
         p = PAPER_T4[g]
         rows.append([f"Wan2018 {g.upper()}", "-", "-", *[_f(x) for x in p]])
@@ -1039,7 +1039,7 @@ def replay_tlog(path: Path, cfg: MonitorConfig, est_cfg: Any, variant: str = "cm
         rows["t"].append(frame.t_us * 1e-6)
         for st in step.sets:
             rows[f"{st.name}_j"].append(st.rms)
-        v = next((e.virtual for e in step.estimates if e.virtual), {})
+        v: dict[Any, float] = next((e.virtual for e in step.estimates if e.virtual), {})
         rows["aoa_est"].append(next((x for c, x in v.items() if c.kind == "aoa_virtual"),
                                     math.nan))
         rows["cas_est"].append(next((x for c, x in v.items() if c.kind == "cas_virtual"),
