@@ -22,6 +22,7 @@ import dataclasses
 import logging
 import math
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 
@@ -181,14 +182,14 @@ class AirDataEstimator:
         ``None`` means every instance of that set is isolated as faulty: the corresponding row
         of C is zeroed (output configurations II-IV, Wan2018 Table I and sec. V-C).
         """
-        self._fused = (aoa_rad, cas_mps)
+        self._fused: tuple[float | None, float | None] | None = (aoa_rad, cas_mps)
 
     def reset(self) -> None:
         self._mhe: MheState | None = None
         self._ekf: EkfState | None = None
         self._theta_prev: Vec | None = None
         self._t_prev_us: int | None = None
-        self._fused: tuple[float | None, float | None] | None = None
+        self._fused = None
         self._acc_sum = np.zeros(3)  # A_x, A_z, q summed since the last air-data step
         self._acc_n = 0
         self._prepared: _Prepared | None = None
@@ -199,7 +200,7 @@ class AirDataEstimator:
     def x_hat(self) -> Vec | None:
         """x_hat_{k|k} = [alpha, V_g, W_x, W_z] after the last air-data step."""
         if self._mhe is not None:
-            return self._mhe.x[self._mhe.n - 1].copy()
+            return cast(Vec, self._mhe.x[self._mhe.n - 1].copy())
         if self._ekf is not None:
             return self._ekf.x.copy()
         return None
@@ -257,7 +258,7 @@ class AirDataEstimator:
             ok = info.numerics_ok
             x_hat = self._mhe.x[self._mhe.n - 1]
         else:
-            assert self._ekf is not None
+            assert self._ekf is not None and self._theta_prev is not None  # y_pred needs it
             pred = ekf_predict(self._ekf, self.model, self._theta_prev, dt_s, self.weights.q_diag)
             upd = ekf_update(pred, self.model, y, mask, theta_p, self.weights.r_diag)
             self._ekf = upd.state
