@@ -368,6 +368,7 @@ class ImuTwoStageEstimator:
         for j, d in enumerate(decisions):
             if d is not GateDecision.ACCEPT:
                 y_pred[3 * j:3 * j + 3] -= innov.nu[3 * j:3 * j + 3]
+        assert self._u_prev is not None  # step only gates after a step from _u_prev
         new, innov2 = two_stage_step(s, model, self._u_prev, u_m, y_pred, dt_s, noise,
                                      self._fcfg)
         if not innov2.numerics_ok:
