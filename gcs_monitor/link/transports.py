@@ -280,7 +280,7 @@ class ZenohSource(_ThreadedSource):
         try:  # a callback subscriber left open hangs the process at exit (stack-notes sec. 3)
             self._sub = self._session.declare_subscriber(keyexpr, self._on_sample)
         except Exception as exc:
-            self._session.close()  # type: ignore[no-untyped-call]
+            self._session.close()
             raise SourceError(f"zenoh:{keyexpr}: cannot subscribe: {exc}") from None
         self._closed = False
 
@@ -296,9 +296,9 @@ class ZenohSource(_ThreadedSource):
             return
         self._closed = True
         try:
-            self._sub.undeclare()  # type: ignore[no-untyped-call]
+            self._sub.undeclare()
         finally:
-            self._session.close()  # type: ignore[no-untyped-call]
+            self._session.close()
 
 
 class TlogSource(Source):
