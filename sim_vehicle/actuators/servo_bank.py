@@ -12,7 +12,7 @@ with RK4 over the simulation step with the command and the fault effect held.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -64,7 +64,7 @@ class ServoBank:
         self._inp_faults = [False] * N_SURFACES  # fault columns of the row not yet cleared
 
     # ------------------------------------------------------------------ derivative
-    def _make_deriv(self):  # type: ignore[no-untyped-def]
+    def _make_deriv(self) -> Callable[..., tuple[float, float, float, float, float, float]]:
         """Closure evaluating Lu2017 eqs. 4, 13 and the reference model with all constants bound.
 
         Same equations as :func:`gcs_monitor.models.servo.servo_derivative`,

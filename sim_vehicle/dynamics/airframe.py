@@ -9,6 +9,7 @@ from __future__ import annotations
 import tomllib
 from dataclasses import dataclass, fields
 from pathlib import Path
+from typing import Any
 
 AIRFRAME_DIR = Path(__file__).resolve().parent.parent / "airframes"
 
@@ -120,7 +121,7 @@ class Airframe:
     autopilot: AutopilotGains
 
 
-def _build(cls: type, table: dict, section: str, path: Path):  # type: ignore[no-untyped-def]
+def _build(cls: type, table: dict[str, Any], section: str, path: Path) -> Any:
     names = {f.name for f in fields(cls)}
     for key in table:
         if key not in names:
