@@ -567,10 +567,10 @@ def to_toml(sc: Scenario) -> str:
             lines.append(f"t_end_s = {_fmt(f.t_end_s)}")
         p = f.p()
         factor = float(p.pop("si_factor", 1.0))  # type: ignore[arg-type]
-        for k, v in p.items():
+        for k, value in p.items():
             if k.startswith("expr_"):
                 k = "expr_" + _unit_with_factor(k[len("expr_"):], factor)
-            lines.append(f"{k} = {_fmt(v)}")
+            lines.append(f"{k} = {_fmt(value)}")
     for a in sc.actuator_faults:
         lines += ["", "[[actuator_faults]]", f"surface = {_fmt(SURFACES[a.surface])}",
                   f"kind = {_fmt(a.kind)}", f"t_start_s = {_fmt(a.t_start_s)}"]
