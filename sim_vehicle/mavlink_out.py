@@ -29,13 +29,14 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 from types import TracebackType
-from typing import BinaryIO
+from typing import BinaryIO, cast
 
 os.environ.setdefault("MAVLINK20", "1")
 os.environ.setdefault("MAVLINK_DIALECT", "ardupilotmega")
 import numpy as np  # noqa: E402
 from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
 
+_mcrf4xx: Callable[[bytes, int], int] | None
 try:  # the C CRC pymavlink itself uses when available
     from fastcrc.crc16 import mcrf4xx as _mcrf4xx  # noqa: E402
 except ImportError:  # pragma: no cover - pure-Python fallback
@@ -102,7 +103,7 @@ class _FastPacker:
         mid = self.msg_id
         # header after (len, incompat, compat, seq): sysid, compid, 24-bit message id
         tail = _HDR_TAIL.pack(mav.srcSystem, mav.srcComponent, mid & 0xFFFF, mid >> 16)
-        crc16 = _mcrf4xx
+        crc16 = cast(Callable[[bytes, int], int], _mcrf4xx)  # _packer binds with fastcrc only
         crc_pack = _CRC.pack
 
         def pack(*a: object) -> bytes:
