@@ -191,7 +191,10 @@ class WindField:
         if kind not in kinds:
             raise ValueError(f"unknown wind kind {kind!r}; expected one of {kinds}")
         self.kind = kind
-        self.mean = tuple(float(v) for v in mean_ned_mps) if kind != "calm" else (0.0, 0.0, 0.0)
+        self.mean = cast(  # mean_ned_mps is a 3-tuple
+            tuple[float, float, float],
+            tuple(float(v) for v in mean_ned_mps) if kind != "calm" else (0.0, 0.0, 0.0),
+        )
         self.shear = "shear" in kind
         self.turb = (
             DrydenTurbulence(sigma_mps, scale_m, dt_s, rng) if "turbulence" in kind else None
