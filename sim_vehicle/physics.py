@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from gcs_monitor.core import atmosphere as atm
+from gcs_monitor.core import constants as c
 from gcs_monitor.core.units import DEG2RAD
 from sim_vehicle.actuators.faults import ActuatorFault
 from sim_vehicle.actuators.servo_bank import ActuatorGeometry, ServoBank
@@ -82,7 +83,7 @@ def _feedback(
     gs = math.sqrt(vn**2 + ve**2 + vd**2)
     gamma = math.asin(max(-1.0, min(1.0, -vd / gs))) if gs > 0.0 else 0.0
     return Feedback(
-        alt_m=alt, vd_mps=vd, tas_mps=tas, rho_kgpm3=p_static / (atm.c.ISA_R_JPKGK * oat),
+        alt_m=alt, vd_mps=vd, tas_mps=tas, rho_kgpm3=p_static / (c.ISA_R_JPKGK * oat),
         phi=phi, theta=theta, psi=psi, p=p, q=q, r=r, beta=beta, acc_z_mps2=acc_z,
         gamma_rad=gamma,
     )
