@@ -42,6 +42,8 @@ chromium:
 bench: $(VENV)/.installed-bench
 	$(PY) benchmarks/run_all.py
 
-# ruff with the project's rules (pyproject [tool.ruff]); not part of `make test`
+# ruff and mypy strict with the project's rules (pyproject [tool.ruff], [tool.mypy]); not part
+# of `make test`
 lint: $(VENV)/.installed-dev
 	$(VENV)/bin/ruff check gcs_monitor sim_vehicle dashboards benchmarks tests
+	$(VENV)/bin/mypy
