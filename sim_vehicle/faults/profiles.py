@@ -24,12 +24,11 @@ expr       expr_<U> (string of t, tau)                   eval(expr), e.g. 4*sin(
 Paper notes
 -----------
 * Wan2018 Table II gives "Non-return to zero: 10% x current value" without further definition.
-  We read it as the value the output takes, as the table's jamming row gives the value a vane
-  sticks at: the output falls towards zero but not to it, ``y = 0.1 x(t)`` (``level``), so
-  ``f = -0.9 x(t)``. The name, Fig. 6(b) (three CAS probes with this fault drive the nominal
-  controller into fast AoA transients) and the paper's own MDR 0 % at J_th = 2.9 deg support it
-  (docs/papers-notes.md). The literal additive reading ``f = 0.1 x(t)`` stays available as
-  ``gain`` = 0.1.
+  We read it as the value the output takes: it falls towards zero but not to it,
+  ``y = 0.1 x(t)`` (``level``), so ``f = -0.9 x(t)``. The name, Fig. 6(b) (three CAS probes
+  with this fault drive the nominal controller into fast AoA transients) and the paper's own
+  MDR 0 % at J_th = 2.9 deg support it (docs/papers-notes.md). The literal additive reading
+  ``f = 0.1 x(t)`` stays available as ``gain`` = 0.1.
 * Chen2020's "fast runaway" of the yaw-rate sensor is a ramp at 0.4 deg/s^2 capped at 5 deg/s;
   ``runaway`` and ``drift`` with ``max`` therefore share one formula; runaway requires the limit.
 """
@@ -298,9 +297,9 @@ def additive_value(
     if k == "runaway":
         return runaway_profile(tau_s, s.get("rate"), s.get("limit"))
     if k == "nrz":
-        gain = s.p().get("gain")
+        gain = s.get("gain", math.nan)  # NaN: not given
         return nrz_profile(x_true, s.get("level", NRZ_LEVEL_DEFAULT),
-                           None if gain is None else float(gain))  # type: ignore[arg-type]
+                           None if math.isnan(gain) else gain)
     if k == "scale":
         return scale_profile(x_true, s.get("factor"))
     if k == "noise":
