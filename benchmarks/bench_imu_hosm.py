@@ -18,7 +18,7 @@ import time
 import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter
 
-from gcs_monitor.estimators.imu_hosm import ImuHosmConfig, ImuHosmEstimator
+from gcs_monitor.families.imu.imu_hosm import ImuHosmConfig, ImuHosmEstimator
 from gcs_monitor.models.kinematics_body import (
     body_gs_derivative,
     body_gs_jac_x,

@@ -19,7 +19,7 @@ import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter
 
 from gcs_monitor.core.atmosphere import gravity_mps2
-from gcs_monitor.estimators.imu_ts import ImuTsConfig, ImuTwoStageEstimator, Lu2016Table1
+from gcs_monitor.families.imu.imu_ts import ImuTsConfig, ImuTwoStageEstimator, Lu2016Table1
 from gcs_monitor.filters.two_stage import (
     TwoStageConfig,
     TwoStageNoise,

@@ -36,7 +36,7 @@ import airdata_synth as synth  # noqa: E402
 
 from gcs_monitor.core import constants as c  # noqa: E402
 from gcs_monitor.core.units import KT2MPS  # noqa: E402
-from gcs_monitor.estimators.airdata import AirDataEstimator, AirDataEstimatorConfig  # noqa: E402
+from gcs_monitor.families.airdata.estimator import AirDataEstimator, AirDataEstimatorConfig  # noqa: E402
 from gcs_monitor.filters.mhe import compiled_kernel  # noqa: E402
 
 log = logging.getLogger("bench_mhe")
@@ -55,7 +55,7 @@ def record_problems(
     probs: list[dict[str, np.ndarray]] = []
     times: list[float] = []
     x_ours: list[np.ndarray] = []
-    import gcs_monitor.estimators.airdata as mod
+    import gcs_monitor.families.airdata.estimator as mod
 
     orig = mod.mhe_step
 

@@ -56,6 +56,11 @@ def _sinks_factory(args: argparse.Namespace, cfg: MonitorConfig) -> Callable[[in
         journal = AlarmJournal(Path(args.journal))
     state = {"zenoh_listening": False}
 
+    def blueprint(sysid: int) -> Any:
+        from dashboards.blueprints import default_blueprint, family_views
+
+        return default_blueprint(sysid, family_views(cfg))
+
     def make(sysid: int) -> list[Any]:
         sinks: list[Any] = []
         if getattr(args, "rrd", None):
@@ -64,11 +69,13 @@ def _sinks_factory(args: argparse.Namespace, cfg: MonitorConfig) -> Callable[[in
             rrd = Path(args.rrd)
             if sysid != 1:
                 rrd = rrd.with_name(f"{rrd.stem}_v{sysid}{rrd.suffix}")
-            sinks.append(RerunSink(sysid, rrd_path=rrd, plot_rate_hz=cfg.sinks.rerun_rate_hz))
+            sinks.append(RerunSink(sysid, rrd_path=rrd, plot_rate_hz=cfg.sinks.rerun_rate_hz,
+                                   blueprint=blueprint(sysid)))
         elif getattr(args, "web", False):
             from gcs_monitor.sinks.rerun_sink import RerunSink
 
-            sink = RerunSink(sysid, web=True, plot_rate_hz=cfg.sinks.rerun_rate_hz)
+            sink = RerunSink(sysid, web=True, plot_rate_hz=cfg.sinks.rerun_rate_hz,
+                             blueprint=blueprint(sysid))
             print(f"vehicle {sysid}: Rerun web viewer at {sink.viewer_url}", flush=True)
             sinks.append(sink)
         if getattr(args, "zenoh", False) or cfg.sinks.zenoh:
@@ -165,8 +172,9 @@ def _print_summary(monitor: Any, wall_s: float) -> None:
               f"({lk['loss_pct']:.2f} %), reboots {lk['reboots']}, "
               f"bad values {sum(lk['bad_values'].values())}, "
               f"vehicle time {v['vehicle_time_s']:.1f} s")
-        for name, status in v["estimators"].items():
-            print(f"  {name:26s} {status}")
+        for name, fam in v["families"].items():
+            why = f" ({fam['reason']})" if fam["reason"] else ""
+            print(f"  {name:9s} {fam['state']}{why}  [{fam['title']}]")
     rows = summarise_alarms(monitor.events)
     if rows:
         print("\nalarms (first raise per channel):")
@@ -244,6 +252,21 @@ def cmd_convert(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_config(args: argparse.Namespace) -> int:
+    from gcs_monitor.config import config_markdown, config_toml
+
+    if args.markdown:
+        print(config_markdown(), end="")
+        return 0
+    if args.file is None and not args.defaults:
+        print("gcs-monitor config: give --defaults, --markdown or a FILE to check",
+              file=sys.stderr)
+        return 2
+    cfg = load_config(args.file)  # the defaults without a file
+    print(config_toml(cfg, comments=not args.no_comments), end="")
+    return 0
+
+
 def cmd_demo(args: argparse.Namespace) -> int:
     from gcs_monitor.demo import run_demo
 
@@ -300,6 +323,15 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--max", type=int, help="stop after this many alarms")
     s.add_argument("--json", action="store_true", help="print raw JSON payloads")
     s.set_defaults(func=cmd_alarms)
+    s = sub.add_parser("config", help="print the default configuration, or check a file and "
+                                      "print the configuration it gives")
+    s.add_argument("file", nargs="?", type=Path, help="a monitor TOML to check")
+    s.add_argument("--defaults", action="store_true",
+                   help="print the complete default configuration (TOML, a comment per key)")
+    s.add_argument("--markdown", action="store_true",
+                   help="print the configuration reference (docs/configuration.md)")
+    s.add_argument("--no-comments", action="store_true", help="TOML without comments")
+    s.set_defaults(func=cmd_config)
     s = sub.add_parser("demo", help="simulate a faulty flight, monitor it, write a recording")
     s.add_argument("--out", type=Path, default=Path("gcs_demo"))
     s.add_argument("--preset", default="demo_airdata_faults")

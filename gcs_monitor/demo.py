@@ -67,6 +67,7 @@ def markdown_table(header: list[str], rows: list[list[str]]) -> str:
 
 
 def run_demo(out: Path, *, preset: str = "demo_airdata_faults") -> int:
+    from dashboards.blueprints import default_blueprint, family_views
     from gcs_monitor.config import MonitorConfig
     from gcs_monitor.link.transports import TlogSource
     from gcs_monitor.monitor import Monitor
@@ -90,7 +91,8 @@ def run_demo(out: Path, *, preset: str = "demo_airdata_faults") -> int:
     cfg = MonitorConfig()
 
     def sinks(sysid: int) -> list[Any]:
-        return [RerunSink(sysid, rrd_path=rrd, plot_rate_hz=cfg.sinks.rerun_rate_hz), journal]
+        return [RerunSink(sysid, rrd_path=rrd, plot_rate_hz=cfg.sinks.rerun_rate_hz,
+                          blueprint=default_blueprint(sysid, family_views(cfg))), journal]
 
     print("[2/3] monitoring the tlog (decode -> frames -> estimators -> FDI -> Rerun/journal)")
     assert res.tlog_path is not None

@@ -15,50 +15,19 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from gcs_monitor.config import MonitorConfig
-from gcs_monitor.estimators.base import Estimator
+from gcs_monitor.families import registry
+from gcs_monitor.families.base import Family, FamilyContext
 from gcs_monitor.fdi.alarms import LinkAlarmMonitor
 from gcs_monitor.fdi.events import AlarmEvent
+from gcs_monitor.fdi.records import FamilyStatus, StepOutput
 from gcs_monitor.link.decode import Decoder
-from gcs_monitor.pipeline import PipelineStep, VehiclePipeline
+from gcs_monitor.pipeline import VehiclePipeline, build_families
 from gcs_monitor.sinks import Sink
 from gcs_monitor.telemetry.assembler import FrameAssembler
 
 log = logging.getLogger(__name__)
 
-LINK_CHECK_US = 1_000_000  # link statistics -> LINK alarms once per second of vehicle time
 GCS_SYSIDS = frozenset({255})  # ground stations: never monitored as vehicles
-
-
-def wind_envelope(cfg: MonitorConfig) -> Any:
-    """The declared weather of ``cfg.airdata`` as the model's WindEnvelope (Wan2018 eq. 21b)."""
-    import dataclasses
-
-    from gcs_monitor.models.airdata import WindEnvelope
-
-    a = cfg.airdata  # AirDataConfig carries every WindEnvelope field under the same name
-    return WindEnvelope(**{f.name: getattr(a, f.name) for f in dataclasses.fields(WindEnvelope)})
-
-
-def build_estimators(cfg: MonitorConfig) -> tuple[list[Estimator], Any | None]:
-    """The IMU estimators and the air-data estimator the configuration asks for."""
-    imu: list[Estimator] = []
-    if cfg.estimators.imu_ts:
-        from gcs_monitor.estimators.imu_ts import ImuTwoStageEstimator
-
-        imu.append(ImuTwoStageEstimator())
-    if cfg.estimators.imu_hosm:
-        from gcs_monitor.estimators.imu_hosm import ImuHosmEstimator
-
-        imu.append(ImuHosmEstimator())
-    airdata = None
-    if cfg.estimators.airdata != "none":
-        from gcs_monitor.estimators.airdata import AirDataEstimator, AirDataEstimatorConfig
-
-        est_cfg = AirDataEstimatorConfig(envelope=wind_envelope(cfg),
-                                         wind_accel_in_alpha=cfg.airdata.wind_accel_in_alpha,
-                                         lateral_terms=cfg.airdata.lateral_terms)
-        airdata = AirDataEstimator(est_cfg, variant=cfg.estimators.airdata)
-    return imu, airdata
 
 
 @dataclass
@@ -70,7 +39,7 @@ class VehicleState:
     next_link_check_us: int = 0
     last_t_us: int = 0
     events: int = 0
-    steps: list[PipelineStep] = field(default_factory=list)
+    steps: list[StepOutput] = field(default_factory=list)
 
 
 class Monitor:
@@ -80,24 +49,27 @@ class Monitor:
     ----------
     cfg : monitor configuration
     sinks_for : builds the sinks of a newly seen vehicle (Rerun, Zenoh, journal ...)
-    estimators_for : builds a vehicle's (imu_estimators, airdata); default from ``cfg``
-    on_step : called with (sysid, frame, PipelineStep) after each Frame (evaluation harness)
+    families_for : builds a vehicle's families from its sysid and context; default: the
+        enabled families of ``cfg`` (tests give scripted ones)
+    on_step : called with (sysid, frame, StepOutput) after each Frame (evaluation harness)
     raw_sink : called with every decoded message (raw input recording)
     """
 
     def __init__(self, cfg: MonitorConfig | None = None, *,
                  sinks_for: Callable[[int], Sequence[Sink]] = lambda sysid: (),
-                 estimators_for: Callable[[int], tuple[list[Estimator], Any | None]] | None = None,
-                 on_step: Callable[[int, Any, PipelineStep], None] | None = None,
+                 families_for: Callable[[FamilyContext], list[Family]] | None = None,
+                 on_step: Callable[[int, Any, StepOutput], None] | None = None,
                  decoder: Decoder | None = None,
                  raw_sink: Callable[[Any], None] | None = None) -> None:
         self.cfg = cfg or MonitorConfig()
         self.decoder = decoder or Decoder()
         self.sinks_for = sinks_for
-        self.estimators_for = estimators_for or (lambda sysid: build_estimators(self.cfg))
+        self.families_for = families_for or (
+            lambda ctx: build_families(dict(self.cfg.families), ctx))
         self.on_step = on_step
         self.raw_sink = raw_sink
         self.vehicles: dict[int, VehicleState] = {}
+        self._link_check_us = round(self.cfg.link.check_period_s * 1e6)
         self.events: list[AlarmEvent] = []
         self.source_counters: dict[str, int] = {}
 
@@ -114,13 +86,18 @@ class Monitor:
 
     def _pipeline(self, v: VehicleState) -> VehiclePipeline:
         if v.pipeline is None:
-            imu, airdata = self.estimators_for(v.sysid)
-            v.pipeline = VehiclePipeline(v.sysid, self.cfg, imu_estimators=imu, airdata=airdata,
-                                         sinks=list(self.sinks_for(v.sysid)))
-            v.pipeline.channel_status = self._channel_status(v.pipeline)
-            v.link_alarms = LinkAlarmMonitor(vehicle=v.sysid)
+            v.pipeline = self._new_pipeline(v.sysid, list(self.sinks_for(v.sysid)))
+            v.link_alarms = LinkAlarmMonitor(params=self.cfg.link, vehicle=v.sysid,
+                                             alarm=self.cfg.alarms)
             log.info("vehicle %d: pipeline started", v.sysid)
         return v.pipeline
+
+    def _new_pipeline(self, sysid: int, sinks: list[Sink]) -> VehiclePipeline:
+        # per-channel status records are built only when a sink or ``on_step`` reads them
+        ctx = FamilyContext(vehicle=sysid, stale_after_s=self.cfg.telemetry.stale_after_s,
+                            statuses=bool(sinks) or self.on_step is not None,
+                            alarm=self.cfg.alarms, classifier=self.cfg.classifier)
+        return VehiclePipeline(sysid, self.families_for(ctx), sinks=sinks)
 
     def feed(self, data: bytes, wall_s: float = 0.0) -> list[AlarmEvent]:
         """Decode a chunk and run every Frame it completes; return the alarm events."""
@@ -149,16 +126,9 @@ class Monitor:
         pipe = self._pipeline(v)
         if v.assembler.reboot_pending:  # autopilot reboot: estimators and FDI start afresh
             v.assembler.reboot_pending = False
-            for est in pipe.imu_estimators:
-                est.reset()
-            if pipe.airdata is not None:
-                pipe.airdata.reset()
-            # FDI windows, latches and the air-data predictions describe the old flight: a new
-            # pipeline with the same (reset) estimators and the same sinks starts them afresh.
-            pipe = v.pipeline = VehiclePipeline(v.sysid, self.cfg,
-                                                imu_estimators=pipe.imu_estimators,
-                                                airdata=pipe.airdata, sinks=pipe.sinks)
-            pipe.channel_status = self._channel_status(pipe)
+            # estimator states, FDI windows, latches and predictions describe the old flight:
+            # new families with the same sinks start them afresh
+            pipe = v.pipeline = self._new_pipeline(v.sysid, pipe.sinks)
             # vehicle time restarted: without this no link check (and no LINK/reboot alarm)
             # would run until the new clock passed the old one
             v.next_link_check_us = 0
@@ -166,7 +136,7 @@ class Monitor:
         for frame in frames:
             extra: list[AlarmEvent] = []
             if frame.t_us >= v.next_link_check_us and v.link_alarms is not None:
-                v.next_link_check_us = frame.t_us + LINK_CHECK_US
+                v.next_link_check_us = frame.t_us + self._link_check_us
                 extra = v.link_alarms.step(frame.t_us, self._link_stats(v))
             step = pipe.step(frame, extra)
             v.last_t_us = frame.t_us
@@ -177,10 +147,6 @@ class Monitor:
                 self.on_step(v.sysid, frame, step)
         self.events += out
         return out
-
-    def _channel_status(self, pipe: VehiclePipeline) -> bool:
-        """Per-channel status records are built only when a sink or ``on_step`` reads them."""
-        return bool(pipe.sinks) or self.on_step is not None
 
     def _link_stats(self, v: VehicleState) -> dict[str, float]:
         st = v.assembler.stats
@@ -209,7 +175,8 @@ class Monitor:
             vehicles[str(sysid)] = {
                 "link": v.assembler.stats.as_dict(),
                 "inputs": avail,
-                "estimators": estimator_availability(avail),
+                "families": family_availability(
+                    avail, self.cfg.families, v.pipeline.status if v.pipeline else {}),
                 "alarms": v.pipeline.health()["active_alarms"] if v.pipeline else [],
                 "vehicle_time_s": v.last_t_us * 1e-6,
                 "sinks": [sink_health(s) for s in v.pipeline.sinks] if v.pipeline else [],
@@ -241,25 +208,25 @@ def sink_health(sink: Any) -> dict[str, Any]:
     return out
 
 
-def estimator_availability(avail: dict[str, Any]) -> dict[str, str]:
-    """Which estimators and redundant sets have their inputs on this vehicle's telemetry."""
-    imu = avail["imu_instances"] > 0
-    att = avail["attitude"]
-    gps = avail["gps_velocity"]
-    out = {}
-    gs = imu and att and gps
-    missing = [n for n, ok in (("IMU", imu), ("attitude", att), ("GPS velocity", gps)) if not ok]
-    why = "missing " + ", ".join(missing)
-    out["imu_ts (Lu2016 ATSEKF)"] = "available" if gs else why
-    out["imu_hosm (Atmaca2025)"] = "available" if gs else why
-    air = avail["aoa_instances"] > 0 and avail["cas_instances"] > 0 and avail["baro"]
-    out["airdata (Wan2018 MHE)"] = ("available" if air and gs else
-                                    "missing " + ", ".join(n for n, ok in (
-                                        ("AoA", avail["aoa_instances"] > 0),
-                                        ("CAS", avail["cas_instances"] > 0),
-                                        ("baro", avail["baro"]), ("IMU/attitude/GPS", gs))
-                                        if not ok))
-    out["set aoa"] = f"{avail['aoa_instances']} instance(s)"
-    out["set cas"] = f"{avail['cas_instances']} instance(s)"
-    out["actuator (Lu2017)"] = "available" if avail["surfaces"] else "missing surface feedback"
+def family_availability(avail: dict[str, Any], configs: Any,
+                        status: dict[str, FamilyStatus]) -> dict[str, dict[str, str]]:
+    """Per registered family: ``state`` (judging, not judging, missing inputs, disabled), why,
+    and the redundant-set instance counts of the telemetry."""
+    out: dict[str, dict[str, str]] = {}
+    for spec in registry.FAMILIES:
+        cfg = configs.get(spec.name)
+        if cfg is None or not cfg.enabled:
+            out[spec.name] = {"title": spec.title, "state": "disabled", "reason": ""}
+            continue
+        missing = spec.missing_inputs(avail)
+        st = status.get(spec.name)
+        if missing:
+            state, why = "missing inputs", "missing " + ", ".join(missing)
+        elif st is None:
+            state, why = "not judging", "no frame yet"
+        elif st.judged:
+            state, why = "judging", ""
+        else:
+            state, why = "not judging", st.reason
+        out[spec.name] = {"title": spec.title, "state": state, "reason": why}
     return out

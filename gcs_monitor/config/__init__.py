@@ -1,19 +1,17 @@
-"""Monitor configuration: TOML -> frozen dataclasses, validated once (see defaults.toml)."""
+"""Monitor configuration: TOML -> frozen dataclasses, validated once (docs/configuration.md)."""
 
 from gcs_monitor.config.loader import (
-    AirDataConfig,
     ConfigError,
-    EstimatorsConfig,
-    FdiConfig,
     MonitorConfig,
-    SetConfig,
     SinksConfig,
     TelemetryConfig,
+    config_from_dict,
+    config_markdown,
+    config_toml,
     load_config,
-    scheduled_threshold,
 )
 
 __all__ = [
-    "AirDataConfig", "ConfigError", "EstimatorsConfig", "FdiConfig", "MonitorConfig", "SetConfig",
-    "SinksConfig", "TelemetryConfig", "load_config", "scheduled_threshold",
+    "ConfigError", "MonitorConfig", "SinksConfig", "TelemetryConfig", "config_from_dict",
+    "config_markdown", "config_toml", "load_config",
 ]

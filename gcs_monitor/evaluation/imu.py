@@ -38,8 +38,8 @@ from gcs_monitor.config import MonitorConfig
 from gcs_monitor.config.loader import EstimatorsConfig, FdiConfig, SetConfig
 from gcs_monitor.core.units import RAD2DEG
 from gcs_monitor.estimators.base import Estimator
-from gcs_monitor.estimators.imu_hosm import ImuHosmEstimator
-from gcs_monitor.estimators.imu_ts import (
+from gcs_monitor.families.imu.imu_hosm import ImuHosmEstimator
+from gcs_monitor.families.imu.imu_ts import (
     FAULT_CHANNELS,
     ImuTsConfig,
     ImuTwoStageEstimator,

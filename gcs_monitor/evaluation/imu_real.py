@@ -31,7 +31,7 @@ FDI thresholds on real data: Zipline flights are split by index: the even-index 
 fault-free replays calibrate the IMU channel thresholds (``fdi.monitor.calibrate``, rule
 "max"), the odd-index flights are the evaluation set for the alarm check. OnSpeed (one flight) is
 checked with the Zipline thresholds and with the monitor defaults. "Re-anchor notices" counts
-the ESTIMATOR events (gcs_monitor/estimators/gating.py: a velocity or attitude step the IMU
+the ESTIMATOR events (gcs_monitor/families/imu/gating.py: a velocity or attitude step the IMU
 cannot explain, or an input gap; states re-anchored, fault estimates kept, channels not judged
 while re-converging) -- what the operator sees instead of an IMU fault alarm.
 """
@@ -54,12 +54,6 @@ from gcs_monitor.convert.writer import convert_file, lu2016_table2_injector
 from gcs_monitor.core.frames import dcm_ned_frd, euler_rates
 from gcs_monitor.core.units import RAD2DEG
 from gcs_monitor.estimators.base import Estimator
-from gcs_monitor.estimators.imu_ts import (
-    FAULT_CHANNELS,
-    ImuTsConfig,
-    ImuTwoStageEstimator,
-    Lu2016Table1,
-)
 from gcs_monitor.evaluation.imu import (
     AXES,
     REPORT_SCALE,
@@ -67,6 +61,12 @@ from gcs_monitor.evaluation.imu import (
     md_table,
     replay_packets,
     write_csv,
+)
+from gcs_monitor.families.imu.imu_ts import (
+    FAULT_CHANNELS,
+    ImuTsConfig,
+    ImuTwoStageEstimator,
+    Lu2016Table1,
 )
 from gcs_monitor.fdi.events import AlarmState
 from gcs_monitor.fdi.monitor import calibrate

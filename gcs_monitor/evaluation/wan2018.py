@@ -905,7 +905,7 @@ def light_aircraft_config() -> Any:
     docs/papers-notes.md "Wan2018: low speed"). Model-error weights scaled by about
     (V_transport / V_light)^2 ~ 10-25 against the transport defaults; wind bounds for a
     calm-air flight-test day: |W_x| <= 15 m/s, |W_z| <= 3 m/s, wind rate <= 0.5 m/s^2."""
-    from gcs_monitor.estimators.airdata import AirDataEstimatorConfig
+    from gcs_monitor.families.airdata.estimator import AirDataEstimatorConfig
 
     return AirDataEstimatorConfig(
         dt_nominal_s=0.02,  # OnSpeed air data at 40-50 Hz
@@ -1003,7 +1003,7 @@ def write_triplex_tlog(flight: Any, out: Path, aoa3: np.ndarray, cas3: np.ndarra
 def replay_tlog(path: Path, cfg: MonitorConfig, est_cfg: Any, variant: str = "cmhe"
                 ) -> tuple[list[Any], dict[str, np.ndarray]]:
     """Monitor a tlog (TlogSource, as ``gcs-monitor replay``); events and per-sample series."""
-    from gcs_monitor.estimators.airdata import AirDataEstimator
+    from gcs_monitor.families.airdata.estimator import AirDataEstimator
     from gcs_monitor.link.transports import open_source
     from gcs_monitor.monitor import Monitor
 

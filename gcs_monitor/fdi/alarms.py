@@ -18,6 +18,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from enum import StrEnum
 
+from gcs_monitor.core.params import param
 from gcs_monitor.core.types import ChannelId
 from gcs_monitor.fdi.events import AlarmEvent, AlarmKind, AlarmState, FaultType
 
@@ -128,6 +129,7 @@ class LinkAlarmParams:
     crc_hold_s : LINK/crc stays raised this long after the last new CRC error, s
     max_stream_age_s : LINK/stale when no message has arrived for this long, s
     reboot_hold_s : LINK/reboot is shown for this long after a detected reboot, s
+    check_period_s : how often the link statistics are checked, s
     """
 
     max_loss_pct: float = 5.0
@@ -135,6 +137,8 @@ class LinkAlarmParams:
     crc_hold_s: float = 5.0
     max_stream_age_s: float = 1.0
     reboot_hold_s: float = 5.0
+    check_period_s: float = param(1.0, "link statistics are turned into LINK alarms this often "
+                                  "(vehicle time)", positive=True)
 
 
 _US_PER_S = 1_000_000
@@ -157,12 +161,13 @@ class LinkAlarmMonitor:
     "duplicate_sysid")``.
     """
 
-    def __init__(self, *, params: LinkAlarmParams | None = None, vehicle: int = 1) -> None:
+    def __init__(self, *, params: LinkAlarmParams | None = None, vehicle: int = 1,
+                 alarm: AlarmParams | None = None) -> None:
         self.p = params if params is not None else LinkAlarmParams()
         self.vehicle = vehicle
         self._sm = {
             name: AlarmStateMachine(ChannelId("link", vehicle, name), AlarmKind.LINK, "link",
-                                    vehicle=vehicle)
+                                    params=alarm, vehicle=vehicle)
             for name in ("loss", "crc", "stale", "reboot", "duplicate_sysid")
         }
         self._crc_prev: float | None = None

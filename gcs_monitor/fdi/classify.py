@@ -32,31 +32,61 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from gcs_monitor.core.params import param
 from gcs_monitor.fdi.events import FaultType
 
 
 @dataclass(frozen=True, slots=True)
+class ClassifierShape:
+    """The shape tests of the classifier, common to every channel (project choices, see the
+    module doc); ``[classifier]`` in the configuration."""
+
+    min_fault_sigma: float = param(4.0, "smallest fault worth naming, in noise sigmas (a_min)",
+                                   positive=True)
+    stuck_std_ratio: float = param(0.2, "a measurement whose std is below this fraction of "
+                                   "the noise sigma is stuck", positive=True)
+    osc_power_fraction: float = param(0.5, "share of the detrended variance the strongest "
+                                      "frequency must carry for an oscillation",
+                                      positive=True)
+    osc_min_cycles: float = param(2.0, "periods an oscillation must show in the window (a step "
+                                  "leaves a one-cycle sawtooth after detrending)", positive=True)
+    noise_std_ratio: float = param(2.0, "std above this many noise sigmas with zero mean is a "
+                                   "noise fault", positive=True)
+
+
+_SHAPE = ClassifierShape()
+
+
+@dataclass(frozen=True, slots=True)
 class ClassifierParams:
-    """Classification thresholds for one channel (project choices, see module doc).
+    """Classification thresholds for one channel.
 
     noise_sigma : healthy residual 1-sigma, channel SI unit
     runaway_rate_per_s : slope at and above which a ramp is a runaway, SI/s (Wan2018
         Table II runaways start at 0.2 deg/s for AoA and 0.5 kt/s for CAS)
+    the others : :class:`ClassifierShape`
     """
 
     noise_sigma: float
     runaway_rate_per_s: float
-    min_fault_sigma: float = 4.0
-    stuck_std_ratio: float = 0.2
-    osc_power_fraction: float = 0.5
-    osc_min_cycles: float = 2.0  # a step leaves a one-cycle sawtooth after detrending
-    noise_std_ratio: float = 2.0
+    min_fault_sigma: float = _SHAPE.min_fault_sigma
+    stuck_std_ratio: float = _SHAPE.stuck_std_ratio
+    osc_power_fraction: float = _SHAPE.osc_power_fraction
+    osc_min_cycles: float = _SHAPE.osc_min_cycles
+    noise_std_ratio: float = _SHAPE.noise_std_ratio
 
     def __post_init__(self) -> None:
         if not self.noise_sigma > 0.0:
             raise ValueError(f"noise_sigma must be > 0, got {self.noise_sigma}")
         if not self.runaway_rate_per_s > 0.0:
             raise ValueError(f"runaway_rate_per_s must be > 0, got {self.runaway_rate_per_s}")
+
+    @classmethod
+    def of(cls, noise_sigma: float, runaway_rate_per_s: float,
+           shape: ClassifierShape = _SHAPE) -> ClassifierParams:
+        """The parameters of one channel with the common shape tests."""
+        return cls(noise_sigma, runaway_rate_per_s, shape.min_fault_sigma, shape.stuck_std_ratio,
+                   shape.osc_power_fraction, shape.osc_min_cycles, shape.noise_std_ratio)
 
 
 @dataclass(frozen=True, slots=True)

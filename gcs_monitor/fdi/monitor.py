@@ -27,7 +27,7 @@ import numpy as np
 from gcs_monitor.core.optional import optional_module
 from gcs_monitor.core.types import ChannelId
 from gcs_monitor.fdi.alarms import AlarmParams, AlarmStateMachine
-from gcs_monitor.fdi.classify import ClassifierParams, classify_residual
+from gcs_monitor.fdi.classify import ClassifierParams, ClassifierShape, classify_residual
 from gcs_monitor.fdi.confirmation import Confirmation, ConfirmationParams
 from gcs_monitor.fdi.events import (
     SET_INSTANCE,
@@ -54,6 +54,7 @@ class SetMonitorParams:
     dt_s : nominal sample interval (classification time axis), s
     history_n : residual samples kept per instance for classification
     reclassify_every_n : samples between two reclassifications of an active alarm
+    classifier : the classifier's shape tests (common to every channel)
     stuck_n : window of the frozen-signal check, samples (0 disables it; see
         :class:`FrozenSignalCheck`)
     stuck_ratio : an instance is frozen when the mean square of its sample-to-sample changes
@@ -78,6 +79,7 @@ class SetMonitorParams:
     alarm: AlarmParams = field(default_factory=AlarmParams)
     history_n: int = 200
     reclassify_every_n: int = 50
+    classifier: ClassifierShape = field(default_factory=ClassifierShape)
     stuck_n: int = 0
     stuck_ratio: float = 1.0e-3
     no_data_n: int = 0
@@ -271,8 +273,8 @@ class RedundantSetMonitor:
         self.p = params
         self.estimator = estimator
         self._floor = rms_floor_from_noise(params.noise_sigma)
-        self._cp = ClassifierParams(noise_sigma=params.noise_sigma,
-                                    runaway_rate_per_s=params.runaway_rate_per_s)
+        self._cp = ClassifierParams.of(params.noise_sigma, params.runaway_rate_per_s,
+                                       params.classifier)
         self._rms = [ResidualRms(params.rms) for _ in range(n)]
         self._conf = [Confirmation(params.confirmation) for _ in range(n)]
         self._hist = [_History(params.history_n) for _ in range(n)]
@@ -467,6 +469,7 @@ class ChannelMonitorParams:
     alarm: AlarmParams = field(default_factory=AlarmParams)
     history_n: int = 200
     reclassify_every_n: int = 50
+    classifier: ClassifierShape = field(default_factory=ClassifierShape)
 
 
 class ChannelMonitor:
@@ -488,8 +491,8 @@ class ChannelMonitor:
         self.channel = channel
         self.p = params
         self.estimator = estimator
-        self._cp = ClassifierParams(noise_sigma=params.noise_sigma,
-                                    runaway_rate_per_s=params.runaway_rate_per_s)
+        self._cp = ClassifierParams.of(params.noise_sigma, params.runaway_rate_per_s,
+                                       params.classifier)
         self._rms = ResidualRms(params.rms)
         self._conf = Confirmation(params.confirmation)
         self._hist = _History(params.history_n)

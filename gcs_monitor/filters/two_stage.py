@@ -440,7 +440,7 @@ def _kernels() -> _Kernels | None:
 class PackedTwoStage:
     """Compiled non-iterated steps for an identity output ``h(x) = x`` on a packed state.
 
-    The estimator hot path (:class:`~gcs_monitor.estimators.imu_ts.ImuTwoStageEstimator` on the
+    The estimator hot path (:class:`~gcs_monitor.families.imu.imu_ts.ImuTwoStageEstimator` on the
     GS-KM): the model supplies ``F``, ``G`` and the propagated ``x_bar``; one kernel call
     (``_two_stage_jit.step_identity_output``) runs exactly the calls of :func:`_step_compiled`
     (``hx = x_pred``, ``H = I``) on one contiguous buffer per state instead of a dozen boxed

@@ -31,6 +31,7 @@ import numpy as np
 from gcs_monitor.core import constants as c
 from gcs_monitor.core.atmosphere import tas_from_cas
 from gcs_monitor.core.optional import optional_module
+from gcs_monitor.core.params import param
 from gcs_monitor.core.types import Mat, Vec
 
 N_X = 4  # [alpha, V_g, W_x, W_z]
@@ -358,35 +359,28 @@ class WindEnvelope:
     Wan2018 sec. IV and VI-A: the bounds of eq. 21b "can be time varying to account for
     different weather or flight conditions" and "need to be properly selected according to the
     weather and flight conditions"; the paper does not say how. :func:`envelope_bounds` turns
-    this declaration into the box of eq. 21b.
-
-    Attributes
-    ----------
-    wind_mps : steady horizontal wind speed (any direction)
-    wind_z_mps : steady vertical wind speed
-    shear_mps, shear_z_mps : largest horizontal / vertical change of the wind by shear
-    shear_rate_mps2 : largest wind acceleration of the shear (both axes)
-    turbulence_sigma_mps : Dryden intensity sigma_u = sigma_v = sigma_w (0: no turbulence)
-    turbulence_scale_m : Dryden scale length L
-    n_sigma : how many standard deviations of the turbulence the box holds
-    flight_path_max_rad : largest |alpha - theta| (flight-path angle) of the flight; sizes the
-        eq. 15 approximation error that the W_z state absorbs
-    model_margin_mps, model_rate_margin_mps2 : floor of the box for the model mismatch the wind
-        states absorb even in calm air (u_alpha, u_v, n of eq. 1 "account for ... model
-        mismatches"); keeps the box open (the barrier of eq. 44 needs a non-empty interior)
+    this declaration into the box of eq. 21b. The model margins keep the box open (the
+    barrier of eq. 44 needs a non-empty interior; u_alpha, u_v, n of eq. 1 "account for ... model
+    mismatches").
     """
 
-    wind_mps: float = 18.0
-    wind_z_mps: float = 3.0
-    shear_mps: float = 0.0
-    shear_z_mps: float = 0.0
-    shear_rate_mps2: float = 1.5
-    turbulence_sigma_mps: float = 0.0
-    turbulence_scale_m: float = DRYDEN_SCALE_M
-    n_sigma: float = 3.0
-    flight_path_max_rad: float = 10.0 * math.pi / 180.0
-    model_margin_mps: float = 2.0
-    model_rate_margin_mps2: float = 0.5
+    wind_mps: float = param(18.0, "steady horizontal wind speed (any direction)", unit="kts")
+    wind_z_mps: float = param(3.0, "steady vertical wind speed", unit="kts")
+    shear_mps: float = param(0.0, "largest horizontal change of the wind by shear", unit="kts")
+    shear_z_mps: float = param(0.0, "largest vertical change of the wind by shear", unit="kts")
+    shear_rate_mps2: float = param(1.5, "largest wind acceleration of the shear (both axes)",
+                                   unit="kts")
+    turbulence_sigma_mps: float = param(0.0, "Dryden intensity sigma_u = sigma_v = sigma_w "
+                                        "(0: no turbulence)", unit="kts")
+    turbulence_scale_m: float = param(DRYDEN_SCALE_M, "Dryden scale length L", positive=True)
+    n_sigma: float = param(3.0, "standard deviations of the turbulence the box holds")
+    flight_path_max_rad: float = param(10.0 * math.pi / 180.0, "largest |alpha - theta| "
+                                       "(flight-path angle) of the flight; sizes the eq. 15 "
+                                       "approximation error that W_z absorbs")
+    model_margin_mps: float = param(2.0, "floor of the wind box for the model mismatch the "
+                                    "wind states absorb in calm air", unit="kts")
+    model_rate_margin_mps2: float = param(0.5, "floor of the wind-rate box for the model "
+                                          "mismatch", unit="kts")
 
 
 @dataclass(frozen=True, slots=True)

@@ -10,26 +10,18 @@ fast and does not load rerun or zenoh.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from typing import Any, Protocol
 
-from gcs_monitor.estimators.base import Estimate
-from gcs_monitor.fdi.events import AlarmEvent, ChannelStatus, SetStatus
+from gcs_monitor.fdi.records import StepOutput
 from gcs_monitor.telemetry.frame import Frame
 
 
 class Sink(Protocol):
     """What the pipeline calls on every sink."""
 
-    def publish(
-        self,
-        frame: Frame,
-        estimates: Sequence[Estimate],
-        events: Sequence[AlarmEvent],
-        sets: Sequence[SetStatus],
-        channels: Sequence[ChannelStatus],
-    ) -> None:
-        """One Frame's worth of output; called at the Frame rate (100 Hz)."""
+    def publish(self, frame: Frame, out: StepOutput) -> None:
+        """One Frame's worth of output (alarm events, estimates, set and channel statuses,
+        family statuses); called at the Frame rate (100 Hz)."""
         ...
 
     def update_health(self, health: dict[str, Any]) -> None:

@@ -14,12 +14,12 @@ import json
 import logging
 import os
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from gcs_monitor.estimators.base import Estimate
-from gcs_monitor.fdi.events import AlarmEvent, ChannelStatus, SetStatus
+from gcs_monitor.fdi.events import AlarmEvent
+from gcs_monitor.fdi.records import StepOutput
 from gcs_monitor.sinks.schema import alarm_from_dict, alarm_to_dict, dumps
 from gcs_monitor.telemetry.frame import Frame
 
@@ -63,14 +63,8 @@ class AlarmJournal:
             return
         self.n_written += 1
 
-    def publish(
-        self,
-        frame: Frame,
-        estimates: Sequence[Estimate],
-        events: Sequence[AlarmEvent],
-        sets: Sequence[SetStatus],
-        channels: Sequence[ChannelStatus],
-    ) -> None:
+    def publish(self, frame: Frame, out: StepOutput) -> None:
+        events = out.events
         if not events:
             return
         wall = time.time()

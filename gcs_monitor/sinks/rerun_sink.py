@@ -37,8 +37,8 @@ import rerun.blueprint as rrb
 from gcs_monitor.core.constants import EARTH_RADIUS_M
 from gcs_monitor.core.frames import quat_from_euler
 from gcs_monitor.core.types import ChannelId, Vec, Vec3
-from gcs_monitor.estimators.base import Estimate
 from gcs_monitor.fdi.events import AlarmEvent, AlarmKind, AlarmState, ChannelStatus, SetStatus
+from gcs_monitor.fdi.records import Estimate, StepOutput
 from gcs_monitor.sinks.schema import channel_unit, dumps, health_to_dict
 from gcs_monitor.telemetry.frame import Frame
 
@@ -209,7 +209,8 @@ class RerunSink:
     grpc_port, web_port : ports for ``web`` (Rerun defaults 9876 / 9090 when None)
     connect_grpc : stream to an already running viewer (``rerun+http://host:port/proxy``).
         Pitfall: a URL nobody listens on makes close() block 5-10 s (stack-notes section 2).
-    blueprint : the default blueprint; ``dashboards.default_blueprint(vehicle)`` when None
+    blueprint : the default blueprint the viewer applies (``dashboards.default_blueprint``);
+        None sends none
     plot_rate_hz : sampling rate of the time-series plots (vehicle time)
     flush_period_s : how much vehicle time of plot samples is buffered per ``send_columns``
     track_rate_hz : rate of the 3-D track/attitude update
@@ -236,10 +237,6 @@ class RerunSink:
         if plot_rate_hz <= 0 or track_rate_hz <= 0 or flush_period_s < 0:
             raise ValueError("plot_rate_hz and track_rate_hz must be > 0, flush_period_s >= 0")
         self.vehicle = int(vehicle)
-        if blueprint is None:
-            from dashboards.blueprints import default_blueprint  # lazy: dashboards imports us
-
-            blueprint = default_blueprint(self.vehicle)
         self._plot_period_us = round(US_PER_S / plot_rate_hz)
         self._track_period_us = round(US_PER_S / track_rate_hz)
         self._flush_period_us = round(flush_period_s * US_PER_S)
@@ -325,14 +322,8 @@ class RerunSink:
         )
 
     # ----------------------------------------------------------------- Sink protocol
-    def publish(
-        self,
-        frame: Frame,
-        estimates: Sequence[Estimate],
-        events: Sequence[AlarmEvent],
-        sets: Sequence[SetStatus],
-        channels: Sequence[ChannelStatus],
-    ) -> None:
+    def publish(self, frame: Frame, out: StepOutput) -> None:
+        estimates, events, sets, channels = out.estimates, out.events, out.sets, out.channels
         if self._closed:
             return
         self.n_publish += 1

@@ -19,8 +19,8 @@ from typing import Any
 import numpy as np
 
 from gcs_monitor.core.types import ChannelId
-from gcs_monitor.estimators.base import Estimate
 from gcs_monitor.fdi.events import AlarmEvent, AlarmKind, AlarmState, FaultType
+from gcs_monitor.fdi.records import Estimate
 
 SCHEMA_VERSION = 1
 

@@ -32,8 +32,7 @@ from typing import Any, TextIO
 
 import zenoh
 
-from gcs_monitor.estimators.base import Estimate
-from gcs_monitor.fdi.events import AlarmEvent, ChannelStatus, SetStatus
+from gcs_monitor.fdi.records import StepOutput
 from gcs_monitor.sinks.schema import (
     alarm_to_dict,
     dumps,
@@ -143,14 +142,8 @@ class ZenohSink:
         return self._session is not None and not self._closed
 
     # ----------------------------------------------------------------- Sink protocol
-    def publish(
-        self,
-        frame: Frame,
-        estimates: Sequence[Estimate],
-        events: Sequence[AlarmEvent],
-        sets: Sequence[SetStatus],
-        channels: Sequence[ChannelStatus],
-    ) -> None:
+    def publish(self, frame: Frame, out: StepOutput) -> None:
+        estimates, events = out.estimates, out.events
         if self._closed:
             return
         wall = time.time() if (events or estimates) else 0.0

@@ -54,6 +54,7 @@ from gcs_monitor.link.mav import mavlink
 from gcs_monitor.link.stats import LinkStats
 from gcs_monitor.telemetry import contract as ct
 from gcs_monitor.telemetry.frame import Frame, ImuSample
+from gcs_monitor.telemetry.period import SamplePeriod
 from gcs_monitor.telemetry.samples import GpsSample, gps_sample, interpolate_gps
 
 N_IMU = 3
@@ -185,6 +186,7 @@ class FrameAssembler:
         self._air_marked_us = NEVER_US  # newest air sample instant already marked air_new
         self._air_t = [NEVER_US] * (2 * N_AIR)
         self._air_new = False
+        self._air_period = SamplePeriod()  # of the air-data sample instants (air_new marks)
         self._ssa = math.nan
         self._ssa_t = NEVER_US
         self._baro_alt = self._climb = math.nan
@@ -487,9 +489,11 @@ class FrameAssembler:
                 first = f
         if first is None:
             self._air_new = True
+            self._air_period.add(t_us)
         elif t_us > self._air_marked_us:
             first.air_new = True
             self._air_marked_us = t_us
+            self._air_period.add(t_us)
 
     def _aoa_ssa(self, m: Any) -> list[Frame]:
         k = ct.DEG_TO_RAD
@@ -629,6 +633,8 @@ class FrameAssembler:
         f.gps_vel_ned_mps = g.vel_ned_mps if fix_ok else None
         f.gps_held = g.vel_ned_mps is not None and not g.interpolated
         f.gps_fix = self._gps_fix
+        # measured when the frame leaves: samples that arrived while it was held count
+        f.air_period_s = self._air_period.seconds()
         self.frames_out += 1
         return f
 

@@ -37,6 +37,7 @@ class Frame:
     gps_delay_us : how far behind ``t_us`` the interpolated GPS velocity is (0 for held data)
     aoa_rad, cas_mps : (n,) per redundant instance; NaN where that instance has no valid data
     aoa_age_s, cas_age_s : (n,) age of each instance's latest value
+    air_period_s : measured period of the air-data stream (s), NaN until two samples arrived
     output_delay_us : with ``align_delay_us`` set, every input of this frame is that much older
         than the newest data received (everything consistently delayed); 0 otherwise
     reset : the assembler was reset (autopilot reboot) just before this frame
@@ -61,6 +62,8 @@ class Frame:
     cas_mps: Vec = field(default_factory=lambda: np.full(3, np.nan))
     cas_age_s: Vec = field(default_factory=lambda: np.full(3, np.inf))
     air_new: bool = False  # new air data arrived since the previous frame
+    # measured period of the air-data samples (median interval, s); NaN before two samples
+    air_period_s: float = float("nan")
     ssa_rad: float = float("nan")
     baro_alt_m: float = float("nan")
     climb_mps: float = float("nan")  # positive up

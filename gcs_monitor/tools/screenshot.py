@@ -309,8 +309,8 @@ def write_synthetic_rrd(
 
     Returns counters: frames, events and the sink's publish statistics.
     """
+    from dashboards.blueprints import default_blueprint
     from gcs_monitor.core.types import ChannelId
-    from gcs_monitor.estimators.base import Estimate
     from gcs_monitor.fdi.events import (
         AlarmEvent,
         AlarmKind,
@@ -319,6 +319,7 @@ def write_synthetic_rrd(
         FaultType,
         SetStatus,
     )
+    from gcs_monitor.fdi.records import Estimate, StepOutput
     from gcs_monitor.sinks.rerun_sink import RerunSink
     from gcs_monitor.telemetry.frame import Frame, ImuSample
 
@@ -335,7 +336,8 @@ def write_synthetic_rrd(
     acc_fault_hat = 0.0
     raised_aoa = raised_acc = False
     n_events = 0
-    with RerunSink(vehicle, rrd_path=path, recording_id=f"synthetic-{vehicle}-{seed}") as sink:
+    with RerunSink(vehicle, rrd_path=path, recording_id=f"synthetic-{vehicle}-{seed}",
+                   blueprint=default_blueprint(vehicle)) as sink:
         for k in range(n):
             t_s = k * dt_s
             t_us = round(t_s * 1e6)
@@ -456,7 +458,8 @@ def write_synthetic_rrd(
                 )
             n_events += len(events)
             sink.log_true_faults(t_us, {ch_acc[0]: acc_fault})
-            sink.publish(frame, [est], events, [aoa_set, cas_set], chans)
+            sink.publish(frame, StepOutput(events=events, estimates=[est], sets=[aoa_set, cas_set],
+                                           channels=chans))
             if k % 100 == 0:
                 sink.update_health({"alarms_active": int(raised_aoa) + int(raised_acc)})
         stats = {

@@ -9,13 +9,17 @@ import rerun.blueprint as rrb
 from rerun.chunk import RrdReader
 
 from dashboards.blueprints import (
-    airdata_views,
     alarms_view,
     attitude_view,
     default_blueprint,
-    imu_views,
-    overview_views,
+    family_tab,
+    family_views,
+    overview,
 )
+from gcs_monitor.families.airdata.config import AirDataFamilyConfig
+from gcs_monitor.families.airdata.views import views as airdata_views
+from gcs_monitor.families.imu.config import ImuFamilyConfig
+from gcs_monitor.families.imu.views import views as imu_views
 from gcs_monitor.sinks.rerun_sink import APPLICATION_ID, entity_path
 
 
@@ -30,13 +34,13 @@ def _views(c: object) -> list[object]:
 
 
 def test_family_views_and_origins() -> None:
-    air = _views(airdata_views(5, ["aoa", "cas"]))
+    air = _views(family_tab(5, airdata_views(AirDataFamilyConfig())))
     assert len(air) == 6  # 3 per set
     assert {v.origin for v in air} >= {entity_path(5, "sets", "aoa"), entity_path(5, "sets", "cas")}
     assert all(isinstance(v, rrb.TimeSeriesView) for v in air)
-    imu = _views(imu_views(5, ["acc", "gyro"]))
+    imu = _views(family_tab(5, imu_views(ImuFamilyConfig())))
     assert len(imu) == 6 and {v.origin for v in imu} == {"/5/channels/acc", "/5/channels/gyro"}
-    assert len(_views(overview_views(5))) == 4
+    assert len(_views(overview(5, family_views()))) == 4
     assert isinstance(alarms_view(5), rrb.TextLogView) and alarms_view(5).origin == "/5/alarms"
     assert isinstance(attitude_view(5), rrb.Spatial3DView) and attitude_view(5).origin == "/5/world"
 

@@ -194,6 +194,8 @@ def generate(cfg: SynthConfig, rng: np.random.Generator) -> SynthRun:
             fr.aoa_rad, fr.cas_mps = aoa_m, cas_m
             fr.aoa_age_s, fr.cas_age_s = np.zeros(3), np.zeros(3)
             fr.air_new, fr.air_age_s = True, 0.0
+            # as the telemetry assembler reports it: the measured period of the air stream
+            fr.air_period_s = round(cfg.air_every * cfg.dt_imu_s * 1e6) / 1e6
             fr.baro_alt_m = h + cfg.baro_sigma_m * rng.standard_normal()
             fr.climb_mps = -vd
             t_air.append(t)

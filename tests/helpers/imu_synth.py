@@ -19,7 +19,7 @@ from gcs_monitor.core import constants as c
 from gcs_monitor.core.atmosphere import cas_from_tas
 from gcs_monitor.core.frames import dcm_ned_frd
 from gcs_monitor.core.types import Mat, Vec
-from gcs_monitor.estimators.imu_ts import Lu2016Table1
+from gcs_monitor.families.imu.imu_ts import Lu2016Table1
 from gcs_monitor.models.kinematics import gs_km_f
 from gcs_monitor.telemetry.frame import Frame, ImuSample
 

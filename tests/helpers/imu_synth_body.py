@@ -26,12 +26,14 @@ import numpy as np
 from gcs_monitor.core.atmosphere import gravity_mps2
 from gcs_monitor.core.frames import dcm_ned_frd
 from gcs_monitor.core.types import Vec
-from gcs_monitor.estimators.imu_hosm import AtmacaSensorNoise
+from gcs_monitor.families.imu.imu_hosm import AtmacaSensorNoise
 from gcs_monitor.telemetry.frame import Frame, ImuSample
 
 LAT_RAD = math.radians(52.0)
 ALT_M = 1000.0
 TWO_PI = 2.0 * math.pi
+IMU_RATE_HZ = 100.0  # Atmaca2025 Table 1
+GPS_RATE_HZ = 10.0  # Atmaca2025 Table 1
 FAULT_WINDOWS_S = ((10.0, 30.0), (35.0, 55.0))  # Atmaca2025 Tables 2 and 3
 
 FaultFn = Callable[[float], Vec]
@@ -182,11 +184,11 @@ def make_run(
     nz = noise if noise is not None else AtmacaSensorNoise()
     rng = np.random.default_rng(seed)
     g = gravity_mps2(LAT_RAD, ALT_M)
-    dt = 1.0 / nz.imu_rate_hz
+    dt = 1.0 / IMU_RATE_HZ
     n = int(round(duration_s / dt)) + 1
     t_s = np.arange(n) * dt
     # GPS samples at 10 Hz, one beyond the end so every frame can interpolate
-    gps_dt = 1.0 / nz.gps_rate_hz
+    gps_dt = 1.0 / GPS_RATE_HZ
     n_gps = int(math.ceil(duration_s / gps_dt)) + 2
     t_gps = np.arange(n_gps) * gps_dt
     v_gps = np.array([truth(float(tg), g)[2] for tg in t_gps])

@@ -7,9 +7,11 @@ import functools
 from dataclasses import dataclass, field
 from typing import Any
 
+from gcs_monitor.families.base import FamilyContext
 from gcs_monitor.fdi.events import AlarmEvent, AlarmKind
 from gcs_monitor.link.mav import mavlink
 from gcs_monitor.monitor import Monitor
+from gcs_monitor.pipeline import build_families
 
 BASE_PRESET = "lu2016_calm"  # calm level flight; its Table 2 IMU faults are removed
 BASE_DURATION_S = 8.0
@@ -32,8 +34,7 @@ class MonitorRun:
     monitor: Monitor
     events: list[AlarmEvent]
     health: dict[str, Any]
-    resets: list[str] = field(default_factory=list)  # estimator names, one per reset() call
-    estimators: list[str] = field(default_factory=list)  # every estimator built
+    builds: list[list[str]] = field(default_factory=list)  # family names of every build
 
     @property
     def sensor_alarms(self) -> list[AlarmEvent]:
@@ -46,33 +47,21 @@ class MonitorRun:
 
 
 def run_monitor(data: bytes, *, chunk: int = 4096, **kw: Any) -> MonitorRun:
-    """Feed ``data`` through a default Monitor in chunks; count estimator resets."""
-    from gcs_monitor.monitor import build_estimators
-
+    """Feed ``data`` through a default Monitor in chunks; record every family build (a vehicle's
+    families are built when it first sends frames and again after an autopilot reboot)."""
     m0 = Monitor()
-    resets: list[str] = []
-    built: list[str] = []
+    builds: list[list[str]] = []
 
-    def estimators_for(sysid: int) -> tuple[list[Any], Any]:
-        imu, air = build_estimators(m0.cfg)
-        for est in [*imu, air]:
-            if est is None:
-                continue
-            built.append(est.name)
-            orig = est.reset
+    def families_for(ctx: FamilyContext) -> list[Any]:
+        fams = build_families(dict(m0.cfg.families), ctx)
+        builds.append([f.name for f in fams])
+        return fams
 
-            def counted(orig: Any = orig, name: str = est.name) -> None:
-                resets.append(name)
-                orig()
-
-            est.reset = counted
-        return imu, air
-
-    m = Monitor(estimators_for=estimators_for, **kw)
+    m = Monitor(families_for=families_for, **kw)
     for i in range(0, len(data), chunk):
         m.feed(data[i:i + chunk])
     m.finish()
-    return MonitorRun(m, list(m.events), m.health(), resets, built)
+    return MonitorRun(m, list(m.events), m.health(), builds)
 
 
 def repack(packet: bytes, **fields: Any) -> bytes:

@@ -211,7 +211,7 @@ def test_live_loopback_zenoh_rerun_and_replay(tmp_path: Path) -> None:
     # -- the health queryable answered while the monitor ran -------------------------------------
     assert health is not None
     text = json.dumps(health)
-    assert '"estimators"' in text and "imu_ts (Lu2016 ATSEKF)" in text
+    assert '"families"' in text and "Lu2016 ATSEKF" in text
 
     # -- the recording holds residuals and alarms -----------------------------------------------
     paths = _rrd_paths(rrd)

@@ -18,8 +18,10 @@ import numpy as np
 import pytest
 
 from gcs_monitor.config import MonitorConfig
-from gcs_monitor.config.loader import EstimatorsConfig
-from gcs_monitor.monitor import Monitor, build_estimators
+from gcs_monitor.families.base import FamilyContext
+from gcs_monitor.families.imu.family import ImuFamily
+from gcs_monitor.monitor import Monitor
+from gcs_monitor.pipeline import build_families
 
 DURATION_S = 32.0  # Table 2 faults at 10-30 s; IMU channels judged after a 5 s warm-up
 
@@ -34,21 +36,26 @@ def _flight() -> bytes:
 
 
 def _replay(*, plain_imu_ts: bool, on_step: bool) -> tuple[list[Any], list[Any]]:
-    cfg = MonitorConfig(estimators=EstimatorsConfig(imu_ts=True, imu_hosm=True, airdata="none"))
+    imu = MonitorConfig().family("imu")
+    imu = dataclasses.replace(imu, hosm=dataclasses.replace(imu.hosm, enabled=True))
+    cfg = MonitorConfig().with_family("imu", imu).with_family("airdata", estimator="none")
     estimates: list[Any] = []
 
-    def estimators_for(sysid: int) -> tuple[list[Any], Any]:
-        imu, air = build_estimators(cfg)
+    def families_for(ctx: FamilyContext) -> list[Any]:
+        fams = build_families(dict(cfg.families), ctx)
         if plain_imu_ts:
-            for est in imu:
-                if est.name == "imu_ts":
-                    est._packed = None  # every step through filters.two_stage.two_stage_step
-        return imu, air
+            for fam in fams:
+                if isinstance(fam, ImuFamily):
+                    for est in fam.estimators:
+                        if est.name == "imu_ts":
+                            # every step through filters.two_stage.two_stage_step
+                            est._packed = None  # type: ignore[attr-defined]
+        return fams
 
     def record(sysid: int, frame: Any, step: Any) -> None:
         estimates.extend(step.estimates)
 
-    mon = Monitor(cfg, estimators_for=estimators_for, on_step=record if on_step else None)
+    mon = Monitor(cfg, families_for=families_for, on_step=record if on_step else None)
     data = _flight()
     for i in range(0, len(data), 4096):
         mon.feed(data[i:i + 4096])

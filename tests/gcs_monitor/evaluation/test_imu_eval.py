@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from gcs_monitor.core.types import ChannelId
-from gcs_monitor.estimators.imu_ts import FAULT_CHANNELS
 from gcs_monitor.evaluation import imu
+from gcs_monitor.families.imu.imu_ts import FAULT_CHANNELS
 from gcs_monitor.fdi.events import AlarmEvent, AlarmKind, AlarmState, FaultType
 
 

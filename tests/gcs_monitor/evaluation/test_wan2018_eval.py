@@ -125,7 +125,7 @@ def test_nrz_reading_changes_only_the_nrz_faults() -> None:
 def test_demo_preset_alarms_exactly_the_faulty_instances() -> None:
     """demo_airdata_faults (aoa1 bias, cas0 slow drift 0.5 kt/s, cas2 runaway -5 kt/s) through
     the MAVLink path with the CMHE reference: exactly those three instances are raised."""
-    from gcs_monitor.estimators.airdata import AirDataEstimator
+    from gcs_monitor.families.airdata.estimator import AirDataEstimator
     from gcs_monitor.monitor import Monitor
     from sim_vehicle.run import iter_packets
     from sim_vehicle.scenario import load_scenario

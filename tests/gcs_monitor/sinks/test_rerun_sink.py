@@ -12,9 +12,9 @@ import pytest
 from rerun.chunk import RrdReader
 from scipy.spatial.transform import Rotation
 
+from dashboards.blueprints import default_blueprint
 from gcs_monitor.core.frames import quat_from_euler
 from gcs_monitor.core.types import ChannelId
-from gcs_monitor.estimators.base import Estimate
 from gcs_monitor.fdi.events import (
     AlarmEvent,
     AlarmKind,
@@ -23,6 +23,7 @@ from gcs_monitor.fdi.events import (
     FaultType,
     SetStatus,
 )
+from gcs_monitor.fdi.records import Estimate, StepOutput
 from gcs_monitor.sinks.rerun_sink import (
     APPLICATION_ID,
     RerunSink,
@@ -62,7 +63,8 @@ def _set(t_us: int, bias: float) -> SetStatus:
 
 
 def _run(path: Path, n: int = 300, **kw: object) -> RerunSink:
-    sink = RerunSink(1, rrd_path=path, recording_id="test-rec", **kw)  # type: ignore[arg-type]
+    sink = RerunSink(1, rrd_path=path, recording_id="test-rec",  # type: ignore[arg-type]
+                     blueprint=default_blueprint(1), **kw)
     for k in range(n):
         t_us = k * 10_000  # 100 Hz
         events = []
@@ -116,7 +118,8 @@ def _run(path: Path, n: int = 300, **kw: object) -> RerunSink:
             virtual={ACC_X: -0.1},
         )
         ch = ChannelStatus(ACC_X, t_us, 0.2, 0.15, 0.3, False, "imu_ts")
-        sink.publish(_frame(t_us), [est], events, [_set(t_us, 0.03 if k >= 150 else 0.0)], [ch])
+        sink.publish(_frame(t_us), StepOutput(events=events, estimates=[est], sets=[
+            _set(t_us, 0.03 if k >= 150 else 0.0)], channels=[ch]))
     sink.update_health({"alarms_active": 1})
     sink.close()
     return sink
@@ -198,7 +201,9 @@ def test_decimation_and_cost(tmp_path: Path) -> None:
     t0 = time.perf_counter()
     for k in range(n):
         t_us = k * 10_000
-        sink.publish(_frame(t_us), [est], [], [_set(t_us, 0.0), _set(t_us, 0.0)], ch)
+        sink.publish(_frame(t_us), StepOutput(estimates=[est],
+                                              sets=[_set(t_us, 0.0), _set(t_us, 0.0)],
+                                              channels=ch))
     per_publish_us = (time.perf_counter() - t0) / n * 1e6
     sink.close()
     assert sink.n_publish == n

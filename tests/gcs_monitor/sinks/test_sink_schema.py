@@ -11,8 +11,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from gcs_monitor.core.types import ChannelId
-from gcs_monitor.estimators.base import Estimate
 from gcs_monitor.fdi.events import AlarmEvent, AlarmKind, AlarmState, FaultType
+from gcs_monitor.fdi.records import Estimate
 from gcs_monitor.sinks.schema import (
     SCHEMA_VERSION,
     alarm_from_dict,

@@ -14,8 +14,8 @@ import pytest
 import zenoh
 
 from gcs_monitor.core.types import ChannelId
-from gcs_monitor.estimators.base import Estimate
 from gcs_monitor.fdi.events import AlarmEvent, AlarmKind, AlarmState, FaultType
+from gcs_monitor.fdi.records import Estimate, StepOutput
 from gcs_monitor.sinks.schema import SCHEMA_VERSION, alarm_from_dict
 from gcs_monitor.sinks.zenoh_sink import (
     ZenohSink,
@@ -79,7 +79,7 @@ def test_alarm_reaches_other_process_and_health_answers() -> None:
             t_us = 1_000_000
             deadline = time.monotonic() + 12
             while child.poll() is None and time.monotonic() < deadline:
-                sink.publish(Frame(t_us=t_us, imu=[]), [], [_alarm(t_us)], [], [])
+                sink.publish(Frame(t_us=t_us, imu=[]), StepOutput(events=[_alarm(t_us)]))
                 t_us += 10_000
                 time.sleep(0.1)
             out, _ = child.communicate(timeout=10)
@@ -124,7 +124,7 @@ def test_estimates_decimated_in_process() -> None:
         for k in range(200):  # 2 s of 100 Hz frames -> 10 estimates at 5 Hz
             t_us = k * 10_000
             est = Estimate("imu_ts", t_us, states={"vel_ned_mps": np.array([1.0, 2.0, 3.0])})
-            sink.publish(Frame(t_us=t_us, imu=[]), [est], [], [], [])
+            sink.publish(Frame(t_us=t_us, imu=[]), StepOutput(estimates=[est]))
         deadline = time.monotonic() + 5
         while len(got) < 10 and time.monotonic() < deadline:
             time.sleep(0.05)
@@ -139,7 +139,8 @@ def test_unreachable_connect_does_not_block_or_crash() -> None:
     t0 = time.monotonic()
     sink = ZenohSink(7, listen=[], connect=[dead])
     for k in range(100):
-        sink.publish(Frame(t_us=k * 10_000, imu=[]), [], [_alarm(k * 10_000, 7)], [], [])
+        sink.publish(Frame(t_us=k * 10_000, imu=[]),
+                         StepOutput(events=[_alarm(k * 10_000, 7)]))
     sink.close()
     elapsed = time.monotonic() - t0
     assert elapsed < 5.0, elapsed  # open retries in the background (~0.5 s), puts never block
@@ -150,7 +151,7 @@ def test_bad_listen_endpoint_counts_error() -> None:
     # 10.255.255.1 is not a local address: binding fails at once (os error 99).
     sink = ZenohSink(8, listen=["tcp/10.255.255.1:7447"])
     assert not sink.active and sink.n_errors == 1
-    sink.publish(Frame(t_us=0, imu=[]), [], [_alarm(0, 8)], [], [])
+    sink.publish(Frame(t_us=0, imu=[]), StepOutput(events=[_alarm(0, 8)]))
     assert sink.n_dropped == 1
     sink.close()
 

@@ -36,15 +36,16 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import cast
 
 import numpy as np
 
 from gcs_monitor.core import constants as c
 from gcs_monitor.core.atmosphere import gravity_mps2
+from gcs_monitor.core.params import param, section
 from gcs_monitor.core.types import ChannelId, Mat, Vec
-from gcs_monitor.estimators.base import Estimate
+from gcs_monitor.fdi.records import Estimate
 from gcs_monitor.filters.otsekf import (
     OtsekfPrediction,
     OtsekfState,
@@ -88,56 +89,52 @@ _PSI = 5
 
 @dataclass(frozen=True, slots=True)
 class AtmacaSensorNoise:
-    """Sensor rates and 1-sigma noise (Atmaca2025 Table 1)."""
+    """Sensor 1-sigma noise (Atmaca2025 Table 1; its rates, GPS 10 Hz and IMU 100 Hz, are the
+    simulator's: the estimator works from the measured sample times)."""
 
-    gps_vel_sigma_mps: float = 0.030
-    gps_rate_hz: float = 10.0
-    phi_theta_sigma_rad: float = 8.7e-5
-    psi_sigma_rad: float = 1.7e-4
-    acc_sigma_mps2: float = 6.9e-4
-    gyro_sigma_radps: float = 4.1e-6
-    imu_rate_hz: float = 100.0
+    gps_vel_sigma_mps: float = param(0.030, "GPS velocity noise", positive=True)
+    phi_theta_sigma_rad: float = param(8.7e-5, "roll and pitch noise", positive=True,
+                                       unit="si")
+    psi_sigma_rad: float = param(1.7e-4, "heading noise", positive=True, unit="si")
+    acc_sigma_mps2: float = param(6.9e-4, "accelerometer noise", positive=True)
+    gyro_sigma_radps: float = param(4.1e-6, "gyro noise", positive=True, unit="si")
 
 
 @dataclass(frozen=True, slots=True)
 class ImuHosmConfig:
     """Estimator tuning. Atmaca2025 gives no values for the drift noise and the HOSM gains
     ("trial and error", Sec. III.B.2); the defaults below are this project's tuning, validated by
-    tests/gcs_monitor/estimators/test_imu_hosm.py on the Table 2 and Table 3 fault cases.
+    tests/gcs_monitor/families/imu/test_imu_hosm.py on the Table 2 and Table 3 fault cases."""
 
-    Attributes
-    ----------
-    noise : sensor noise, Atmaca2025 Table 1
-    drift_acc_sigma_mps_rs : random-walk intensity of the velocity drift (m/s/sqrt(s)), Q^mu
-    drift_gyro_sigma_rad_rs : random-walk intensity of the attitude drift (rad/sqrt(s)), Q^mu
-    hosm_lipschitz_acc : Levant L for the velocity-drift channels, bound of |f_A'''| (m/s^5)
-    hosm_lipschitz_gyro : Levant L for the attitude-drift channels, bound of |f_omega'''| (rad/s^4)
-    gps_r_scale : multiplies the GPS velocity variance; GPS at 10 Hz interpolated to 100 Hz gives
-        ten correlated copies of each sample, so the white-noise R of Table 1 is too confident
-    gate_sigma : innovation gate for the reported test ratio
-    max_gps_age_s, max_att_age_s : older inputs make the estimate unavailable
-    max_dt_s : a larger gap between frames resets the filter
-    mapping : drift-rate to fault mapping, ``"exact"`` (default), ``"flat"`` or ``"paper"``
-        (eq. 51 printed); see the module docstring
-    propagate : ``"corrected"`` or ``"paper"`` (see module docstring)
-    compiled : run model, OTSEKF and HOSM through their numba kernels when numba is installed
-        (same equations; ``False`` runs the numpy references)
-    """
-
-    noise: AtmacaSensorNoise = field(default_factory=AtmacaSensorNoise)
-    drift_acc_sigma_mps_rs: float = 0.1
-    drift_gyro_sigma_rad_rs: float = 3.0e-4
-    hosm_lipschitz_acc: float = 100.0
-    hosm_lipschitz_gyro: float = 0.5
-    levant: LevantGains = field(default_factory=LevantGains)
-    gps_r_scale: float = 1.0
-    gate_sigma: float = 3.0
-    max_gps_age_s: float = 0.5
-    max_att_age_s: float = 0.1
-    max_dt_s: float = 0.1
-    mapping: str = "exact"
-    propagate: str = "corrected"
-    compiled: bool = True
+    noise: AtmacaSensorNoise = section(AtmacaSensorNoise, "sensor noise (Atmaca2025 Table 1)")
+    drift_acc_sigma_mps_rs: float = param(0.1, "random-walk intensity of the velocity drift "
+                                          "Q^mu (m/s per sqrt(s))", positive=True)
+    drift_gyro_sigma_rad_rs: float = param(3.0e-4, "random-walk intensity of the attitude "
+                                           "drift Q^mu (rad per sqrt(s))", positive=True)
+    hosm_lipschitz_acc: float = param(100.0, "Levant L of the velocity-drift channels, bound "
+                                      "of the third derivative of f_A (m/s^5)", positive=True)
+    hosm_lipschitz_gyro: float = param(0.5, "Levant L of the attitude-drift channels, bound of "
+                                       "the third derivative of f_omega (rad/s^4)",
+                                       positive=True)
+    levant: LevantGains = section(LevantGains, "Levant differentiator coefficients "
+                                  "(Atmaca2025 eqs. 47-50)")
+    gps_r_scale: float = param(1.0, "multiplies the GPS velocity variance (interpolated GPS "
+                               "gives correlated copies of each sample)", positive=True)
+    gate_sigma: float = param(3.0, "innovation gate of the reported test ratio", positive=True)
+    max_gps_age_s: float = param(0.5, "older GPS velocity makes the estimate unavailable",
+                                 positive=True)
+    max_att_age_s: float = param(0.1, "older attitude makes the estimate unavailable",
+                                 positive=True)
+    max_dt_s: float = param(0.1, "a larger gap between frames resets the filter",
+                            positive=True)
+    mapping: str = param("exact", "drift-rate to fault mapping: exact, flat, or paper (eq. 51 "
+                         "as printed); see the module docstring",
+                         choices=("exact", "flat", "paper"))
+    propagate: str = param("corrected", "model evaluated at the drift-corrected estimate "
+                           "(corrected) or at x_bar as eq. 20 reads (paper)",
+                           choices=("corrected", "paper"))
+    compiled: bool = param(True, "run model, OTSEKF and HOSM through their numba kernels (same "
+                           "equations)")
 
 
 @dataclass(frozen=True, slots=True)

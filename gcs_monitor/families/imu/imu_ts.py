@@ -10,14 +10,14 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from gcs_monitor.core.atmosphere import gravity_mps2, tas_from_cas
+from gcs_monitor.core.params import param, section
 from gcs_monitor.core.types import ChannelId, Mat, Vec
-from gcs_monitor.estimators.base import Estimate
-from gcs_monitor.estimators.gating import (
+from gcs_monitor.families.imu.gating import (
     SQRT6,
     GateConfig,
     GateDecision,
@@ -25,6 +25,7 @@ from gcs_monitor.estimators.gating import (
     intra_sample_excess_var,
     step_bound,
 )
+from gcs_monitor.fdi.records import Estimate
 from gcs_monitor.filters.ekf import Innovation
 from gcs_monitor.filters.two_stage import (
     PackedTwoStage,
@@ -36,6 +37,7 @@ from gcs_monitor.filters.two_stage import (
 )
 from gcs_monitor.models.kinematics import AsKm, GsKm, compiled_gs_km
 from gcs_monitor.telemetry.frame import Frame
+from gcs_monitor.telemetry.period import SamplePeriod
 
 log = logging.getLogger(__name__)
 
@@ -60,12 +62,17 @@ RESIDUAL_CHANNELS_AS = (ChannelId("tas", 0), ChannelId("aoa", 0), ChannelId("ssa
 class Lu2016Table1:
     """Sensor noise standard deviations (Lu2016 Table 1)."""
 
-    tas_sigma_mps: float = 0.1  # sigma_V
-    vel_sigma_mps: float = 0.01  # sigma_UN, sigma_UE, sigma_UD
-    aoa_sigma_rad: float = 0.1 * _DEG  # sigma_alpha, sigma_beta
-    euler_sigma_rad: float = 0.01 * _DEG  # sigma_phi, sigma_theta, sigma_psi
-    acc_sigma_mps2: float = 0.01  # sigma_Ax, sigma_Ay, sigma_Az
-    gyro_sigma_radps: float = 0.01 * _DEG  # sigma_p, sigma_q, sigma_r
+    tas_sigma_mps: float = param(0.1, "true airspeed noise sigma_V (AS-KM only)", positive=True)
+    vel_sigma_mps: float = param(0.01, "GPS velocity noise sigma_UN, sigma_UE, sigma_UD",
+                                 positive=True)
+    aoa_sigma_rad: float = param(0.1 * _DEG, "AoA and sideslip noise sigma_alpha, sigma_beta "
+                                 "(AS-KM only)", positive=True)
+    euler_sigma_rad: float = param(0.01 * _DEG, "attitude noise sigma_phi, sigma_theta, "
+                                   "sigma_psi", positive=True)
+    acc_sigma_mps2: float = param(0.01, "accelerometer noise sigma_Ax, sigma_Ay, sigma_Az",
+                                  positive=True)
+    gyro_sigma_radps: float = param(0.01 * _DEG, "gyro noise sigma_p, sigma_q, sigma_r",
+                                    positive=True)
 
 
 @dataclass(frozen=True, slots=True)
@@ -80,53 +87,45 @@ class FaultPrior:
     may already be present at start-up): 5 m/s^2 and 5 deg/s, 1 sigma.
     """
 
-    acc_rate_sigma_mps3: float = 2.0 * math.pi
-    gyro_rate_sigma_radps2: float = 0.5 * math.pi * _DEG
-    acc_init_sigma_mps2: float = 5.0
-    gyro_init_sigma_radps: float = 5.0 * _DEG
+    acc_rate_sigma_mps3: float = param(2.0 * math.pi, "accelerometer fault random-walk rate "
+                                       "(largest |df/dt| of Lu2016 Table 2)", positive=True)
+    gyro_rate_sigma_radps2: float = param(0.5 * math.pi * _DEG, "gyro fault random-walk rate "
+                                          "(largest |df/dt| of Lu2016 Table 2)", positive=True)
+    acc_init_sigma_mps2: float = param(5.0, "initial accelerometer fault sigma", positive=True)
+    gyro_init_sigma_radps: float = param(5.0 * _DEG, "initial gyro fault sigma", positive=True)
 
 
 @dataclass(frozen=True, slots=True)
 class ImuTsConfig:
-    """Estimator configuration.
+    """Configuration of the Lu2016 ATSEKF / IOTSEKF IMU fault estimator."""
 
-    Attributes
-    ----------
-    model : ``"gs"`` (GS-KM, Lu2016 eqs. 11-14) or ``"as"`` (AS-KM, eqs. 15-20)
-    adaptive : True = ATSEKF (eqs. 53-58); False = IOTSEKF with fixed ``Q^f``
-    imu_instance : which IMU of the Frame to monitor
-    max_gps_age_s, max_att_age_s, max_air_age_s : staleness limits of the slow inputs
-    max_held_gps_age_s : a GPS velocity held past its sample (``Frame.gps_held``, no later
-        sample to interpolate towards) is a measurement of ``t - age``; its error is
-        ``|dv/dt| age`` (0.5 m/s at 0.1 s and 5 m/s^2), so beyond this age it is not used
-    max_dt_s : after a larger gap between usable samples the states are re-initialised from
-        the measurement; the fault estimates are kept (their covariance grown by the random
-        walk ``Q^f`` over the gap) when ``gate.enabled`` and the filter has run for
-        ``start_warmup_s`` since its last full start (converged); else the filter restarts
-    imu_rate_hz : nominal IMU rate, sets the per-sample initial ``Q^f``
-    gate : input-validity term and GPS-velocity step gate (:mod:`gating`; GS-KM only)
-    start_warmup_s : convergence time of the fault estimates after a (re)start, s (the FDI
-        does not judge them before; the start-up transient is up to 10x the converged level,
-        docs/results.md issue 4)
-    reanchor_warmup_s : the same after a re-anchoring of the states with the fault
-        estimates kept (input gap, rejected velocity step), s
-    """
-
-    model: str = "gs"
-    adaptive: bool = True
-    imu_instance: int = 0
-    noise: Lu2016Table1 = field(default_factory=Lu2016Table1)
-    prior: FaultPrior = field(default_factory=FaultPrior)
-    filter: TwoStageConfig = field(default_factory=TwoStageConfig)
-    max_gps_age_s: float = 0.5
-    max_held_gps_age_s: float = 0.1
-    max_att_age_s: float = 0.5
-    max_air_age_s: float = 0.5
-    max_dt_s: float = 0.1
-    imu_rate_hz: float = 100.0
-    gate: GateConfig = field(default_factory=GateConfig)
-    start_warmup_s: float = 5.0
-    reanchor_warmup_s: float = 2.0
+    model: str = param("gs", "kinematic model: gs = GS-KM (Lu2016 eqs. 11-14, GPS velocity), "
+                       "as = AS-KM (eqs. 15-20, air data)", choices=("gs", "as"))
+    adaptive: bool = param(True, "true = ATSEKF (covariance matching, eqs. 53-58); false = "
+                           "IOTSEKF with a fixed Q^f")
+    imu_instance: int = param(0, "which IMU instance (HIGHRES_IMU id) to monitor")
+    noise: Lu2016Table1 = section(Lu2016Table1, "sensor noise (Lu2016 Table 1)")
+    prior: FaultPrior = section(FaultPrior, "fault prior and initial fault random walk")
+    filter: TwoStageConfig = section(TwoStageConfig, "two-stage filter algorithm settings "
+                                     "(Lu2016 sec. 3.1)")
+    max_gps_age_s: float = param(0.5, "older GPS velocity makes the estimate unavailable",
+                                 positive=True)
+    max_held_gps_age_s: float = param(0.1, "a GPS velocity held past its sample (no later "
+                                      "sample to interpolate towards) is not used beyond this "
+                                      "age (its error is |dv/dt| x age)", positive=True)
+    max_att_age_s: float = param(0.5, "older attitude makes the estimate unavailable",
+                                 positive=True)
+    max_air_age_s: float = param(0.5, "older air data makes the AS-KM estimate unavailable",
+                                 positive=True)
+    max_dt_s: float = param(0.1, "after a larger gap between usable samples the states are "
+                            "re-anchored on the measurement (fault estimates kept when the "
+                            "filter had converged), else the filter restarts", positive=True)
+    gate: GateConfig = section(GateConfig, "input-validity term and GPS-velocity / attitude "
+                               "step gates (ours, families/imu/gating.py; GS-KM only)")
+    start_warmup_s: float = param(5.0, "convergence time of the fault estimates after a "
+                                  "(re)start: the FDI does not judge them before")
+    reanchor_warmup_s: float = param(2.0, "the same after a re-anchoring of the states with "
+                                     "the fault estimates kept (input gap, rejected step)")
 
 
 def _all_finite(a: Vec) -> bool:
@@ -174,6 +173,7 @@ class ImuTwoStageEstimator:
         self._u_prev_l: list[float] = []
         self._r_prev = [0.0] * 6  # previous measured minus estimated output (gates)
         self._t_prev_us = 0
+        self._period = SamplePeriod()  # of the filter's steps (re-anchoring over a gap)
         self._t_start_us = 0  # time of the last full (re)start
         # Compiled hot path (GS-KM, numba): the model kernels write F, G and the propagated
         # x_bar into these work arrays and PackedTwoStage runs the filter step in one call; the
@@ -194,6 +194,7 @@ class ImuTwoStageEstimator:
         self._u_prev = None
         self._u_prev2 = None
         self._u_prev_l = []
+        self._period.reset()
         for g in self._gates:
             g.reset()
 
@@ -225,6 +226,8 @@ class ImuTwoStageEstimator:
                 why, warm = "start", cfg.start_warmup_s
                 self._t_start_us = frame.t_us
             self._u_prev, self._u_prev2, self._t_prev_us = u_m, None, frame.t_us
+            self._period.gap()
+            self._period.add(frame.t_us)
             self._u_prev_l = u_m.tolist()
             self._r_prev = [0.0] * 6
             for g in self._gates:
@@ -232,6 +235,9 @@ class ImuTwoStageEstimator:
             return replace(self._estimate(frame.t_us, self._state, u_m, np.zeros(y.size), True),
                            reinit=why, reinit_warmup_s=warm)
         s = self._state
+        if s.k == 0:  # the first step after a start: Q^f for the measured sample interval
+            s = replace(s, Qf=self.qf0(dt_s))
+        self._period.add(frame.t_us)
         y = y.copy()
         y[5] = s.x[5] + _wrap_pi(y[5] - s.x[5])  # heading innovation across +-pi
         noise, extra = self._noise, None
@@ -333,7 +339,7 @@ class ImuTwoStageEstimator:
             P0,
             np.zeros(6),
             Pf0,
-            self.qf0(1.0 / self.cfg.imu_rate_hz),
+            self.qf0(0.0),  # set at the first step, from its measured interval
             m=6,
             window_n=self._fcfg.window_n,
         )
@@ -342,7 +348,7 @@ class ImuTwoStageEstimator:
         """States from the measurement after an input gap; fault estimate kept, its covariance
         grown by the random walk of the fault model (Lu2016 sec. 3.1) over the gap."""
         fresh = self._init_state(y)
-        n_steps = gap_s * self.cfg.imu_rate_hz
+        n_steps = gap_s / self._period.seconds()  # steps of the measured sample period
         return replace(fresh, f=s.f.copy(), Pf=s.Pf + n_steps * s.Qf, Qf=s.Qf.copy(), k=s.k)
 
     def _gated(self, s: TwoStageState, model: GsKm | AsKm, u_m: Vec, y: Vec, dt_s: float,

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from gcs_monitor.core.types import ChannelId
-from gcs_monitor.estimators.imu_hosm import FAULT_CHANNELS, ImuHosmConfig, ImuHosmEstimator
+from gcs_monitor.families.imu.imu_hosm import FAULT_CHANNELS, ImuHosmConfig, ImuHosmEstimator
 from tests.helpers.imu_synth_body import (
     make_run,
     no_faults,

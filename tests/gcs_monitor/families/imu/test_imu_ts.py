@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from gcs_monitor.core.types import ChannelId
-from gcs_monitor.estimators.gating import GateConfig
-from gcs_monitor.estimators.imu_ts import FAULT_CHANNELS, ImuTsConfig, ImuTwoStageEstimator
+from gcs_monitor.families.imu.gating import GateConfig
+from gcs_monitor.families.imu.imu_ts import FAULT_CHANNELS, ImuTsConfig, ImuTwoStageEstimator
 from gcs_monitor.telemetry.frame import Frame, ImuSample
 from tests.helpers.imu_synth import FAULT_END_S, FAULT_START_S, SynthRun, make_run
 
@@ -147,7 +147,7 @@ def test_as_km_needs_air_data() -> None:
 
 def test_numerical_failure_reports_and_resets() -> None:
     # gate off: with it the absurd sample below is rejected as a step before it can overflow
-    # the filter (tests/gcs_monitor/estimators/test_gating.py)
+    # the filter (tests/gcs_monitor/families/imu/test_gating.py)
     est = ImuTwoStageEstimator(ImuTsConfig(gate=GateConfig(enabled=False)))
     t = 0
     for _ in range(30):

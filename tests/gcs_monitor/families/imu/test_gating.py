@@ -1,4 +1,4 @@
-"""Input-validity term and GPS-velocity step gate (gcs_monitor/estimators/gating.py)."""
+"""Input-validity term and GPS-velocity step gate (gcs_monitor/families/imu/gating.py)."""
 
 from __future__ import annotations
 
@@ -8,14 +8,14 @@ import math
 import numpy as np
 import pytest
 
-from gcs_monitor.estimators.gating import (
+from gcs_monitor.families.imu.gating import (
     GateConfig,
     GateDecision,
     MeasurementStepGate,
     intra_sample_input_var,
     step_bound,
 )
-from gcs_monitor.estimators.imu_ts import FAULT_CHANNELS, ImuTsConfig, ImuTwoStageEstimator
+from gcs_monitor.families.imu.imu_ts import FAULT_CHANNELS, ImuTsConfig, ImuTwoStageEstimator
 from tests.helpers.imu_synth import FAULT_START_S, make_run
 
 

@@ -53,7 +53,7 @@ class GateConfig:
     acc_fault_step_max_mps2 : largest accelerometer fault step (per sample) the fault model is
         meant to reconstruct; a velocity increment mismatch beyond ``dt`` times this plus the
         noise gate is not an IMU fault. Default: 3 sigma of the fault prior of
-        :class:`gcs_monitor.estimators.imu_ts.FaultPrior` (5 m/s^2), i.e. 15 m/s^2.
+        :class:`gcs_monitor.families.imu.imu_ts.FaultPrior` (5 m/s^2), i.e. 15 m/s^2.
     gyro_fault_step_max_radps : the same for the gyro and the Euler angles: 3 x 5 deg/s.
     max_rejected_n : after this many consecutive rejected samples the gate re-anchors anyway
         (a mismatch that persists in the increments is an acceleration error, not a step)

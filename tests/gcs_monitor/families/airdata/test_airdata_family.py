@@ -1,5 +1,5 @@
-"""The Wan2018 scheme's ordering in the pipeline: eq. 17 residuals of sample k are taken against
-the estimator's prediction *for* sample k (x_hat_{k|k-1}), not the one of sample k-1."""
+"""The air-data family keeps the Wan2018 scheme's ordering: eq. 17 residuals of sample k are taken
+against the estimator's prediction *for* sample k (x_hat_{k|k-1}), not the one of sample k-1."""
 
 from __future__ import annotations
 
@@ -9,14 +9,25 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "helpers"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "helpers"))
 import airdata_synth as synth  # noqa: E402
 
-from gcs_monitor.config import MonitorConfig  # noqa: E402
 from gcs_monitor.core.types import ChannelId  # noqa: E402
 from gcs_monitor.core.units import DEG2RAD  # noqa: E402
-from gcs_monitor.estimators.airdata import AirDataEstimator, AirDataEstimatorConfig  # noqa: E402
+from gcs_monitor.families.airdata.config import AirDataFamilyConfig  # noqa: E402
+from gcs_monitor.families.airdata.estimator import (  # noqa: E402
+    AirDataEstimator,
+    AirDataEstimatorConfig,
+)
+from gcs_monitor.families.airdata.family import AirDataFamily  # noqa: E402
+from gcs_monitor.families.base import FamilyContext  # noqa: E402
 from gcs_monitor.pipeline import VehiclePipeline  # noqa: E402
+
+
+def _pipeline(est: AirDataEstimator) -> VehiclePipeline:
+    fam = AirDataFamily(AirDataFamilyConfig(), FamilyContext(vehicle=1, stale_after_s=0.5),
+                        estimator=est)
+    return VehiclePipeline(1, [fam])
 
 
 def _calm_doublet(duration_s: float = 30.0, doublet_deg: float = 4.0) -> synth.SynthRun:
@@ -28,7 +39,7 @@ def _calm_doublet(duration_s: float = 30.0, doublet_deg: float = 4.0) -> synth.S
 
 def test_set_reference_is_the_prediction_of_the_same_sample() -> None:
     run = _calm_doublet()
-    p = VehiclePipeline(1, MonitorConfig(), airdata=AirDataEstimator(variant="cmhe"))
+    p = _pipeline(AirDataEstimator(variant="cmhe"))
     n_checked = 0
     for fr in run.frames:
         out = p.step(fr)
@@ -50,7 +61,7 @@ def test_fault_free_aoa_residual_is_sensor_noise_through_a_pitch_transient() -> 
     prediction leaves the vane noise (sigma 0.1 deg; 0.11 deg measured)."""
     run = _calm_doublet(doublet_deg=8.0)
     rate = np.gradient(run.aoa_true_rad, 0.05)
-    p = VehiclePipeline(1, MonitorConfig(), airdata=AirDataEstimator(variant="cmhe"))
+    p = _pipeline(AirDataEstimator(variant="cmhe"))
     r_fast = []
     j = -1
     for fr in run.frames:

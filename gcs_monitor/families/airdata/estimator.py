@@ -26,8 +26,9 @@ from typing import cast
 
 import numpy as np
 
+from gcs_monitor.core.params import param
 from gcs_monitor.core.types import ChannelId, Vec
-from gcs_monitor.estimators.base import Estimate
+from gcs_monitor.fdi.records import Estimate
 from gcs_monitor.filters.airdata_ekf import EkfState, ekf_predict, ekf_update
 from gcs_monitor.filters.mhe import (
     IpSettings,
@@ -77,49 +78,57 @@ class AirDataEstimatorConfig:
     "the bounds ... can be time varying"); with ``envelope=None`` the fixed
     ``wind_x_max_mps``, ``wind_z_max_mps``, ``wind_rate_max_mps2`` below hold, and
     :meth:`AirDataEstimator.set_wind_bounds` replaces them.
+
+    q_w: Wan2018 Fig. 4 uses 1; with our R_vc that wind random walk lags shears (fault-free CAS
+    residual RMS up to 15 kt in 10 m/s microbursts) and never reaches the wind-rate bound, so the
+    CMHE behaves as the UMHE. q_w = 25 lets the wind follow shears; the wind-rate bound then stops
+    it absorbing CAS runaways, which is the paper's mechanism (Fig. 4/5 reproduced:
+    docs/results.md, `gcs-monitor evaluate --experiment wan2018_fig45`).
     """
 
-    horizon_n: int = 3  # Wan2018 sec. V-C
-    dt_nominal_s: float = 0.05  # 20 Hz air data (Wan2018's data suggest 0.048 s)
-    max_dt_s: float = 0.25  # larger gaps reset the estimator
-    max_gps_age_s: float = 0.5
-    max_att_age_s: float = 0.5
-    # P = diag(p_alpha, p_v, p_w I2)  (eq. 22); p_w from Wan2018 Figs. 3-5
-    p_alpha_rad2: float = 1.0e-6
-    p_v_m2ps2: float = 1.0e-2
-    p_w_m2ps2: float = 1.0e-2
-    # Q = diag(q_alpha, q_v, q_w I2)  (eq. 22); q_w = 1 as Wan2018 Fig. 4
-    q_alpha_rad2ps2: float = 1.0e-4
-    q_v_m2ps4: float = 0.25
-    # q_w: Wan2018 Fig. 4 uses 1; with our R_vc that wind random walk lags shears (fault-free
-    # CAS residual RMS up to 15 kt in 10 m/s microbursts) and never reaches the wind-rate bound,
-    # so the CMHE behaves as the UMHE. q_w = 25 lets the wind follow shears; the wind-rate bound
-    # then stops it absorbing CAS runaways, which is the paper's mechanism (Fig. 4/5 reproduced:
-    # docs/results.md). Measured with `gcs-monitor evaluate --experiment wan2018_fig45`.
-    q_w_m2ps4: float = 25.0
-    # R = diag(R_vg, R_vz, R_alpha, R_vc): measurement noise variances (Wan2018 sec. VI-A).
-    # Wan2018 eq. 22 lists only R_alpha, R_vz, R_vc; V_g is measured too, so R_vg is added.
-    r_vg_m2ps2: float = 0.01
-    r_vz_m2ps2: float = 0.04
-    r_alpha_rad2: float = 3.0e-6  # (0.1 deg)^2
-    r_vc_m2ps2: float = 0.25  # (0.5 m/s)^2
-    # Wind bounds (eq. 21b), here for moderate weather; Wan2018 sec. VI-B winds < 120 kts.
-    wind_x_max_mps: float = 20.0
-    wind_z_max_mps: float = 8.0
-    wind_rate_max_mps2: float = 2.0
-    envelope: WindEnvelope | None = None
-    # eq. 8's wind-acceleration term in alpha_dot (AirDataModelParams); False = eq. 13 exactly
-    wind_accel_in_alpha: bool = True
-    # Theta gets [phi, beta] (bank from ATTITUDE, sideslip from AOA_SSA, 0 when absent) and the
-    # model the exact flight-path and gravity terms (models.airdata.lateral); False: Wan2018
-    lateral_terms: bool = False
-    # q, A_x, A_z of the transition k-1 -> k (eq. 20) are the IMU averages over (t_{k-1}, t_k],
-    # known when y_k arrives, i.e. the rates the step integrates. False: the averages over
-    # (t_{k-2}, t_{k-1}] that arrived with y_{k-1}, which lag the step by one t_s (0.4 deg of
-    # fault-free AoA residual in a 8 deg/s pitch transient; docs/papers-notes.md "Wan2018").
-    step_aligned_rates: bool = True
-    kappa_init: float = 1.0e-2
-    n_s_max: int = 12
+    horizon_n: int = param(3, "MHE horizon N (Wan2018 sec. V-C)", positive=True)
+    max_dt_s: float = param(0.25, "a larger gap between air-data samples restarts the "
+                            "estimator", positive=True)
+    max_gps_age_s: float = param(0.5, "older GPS velocity makes the estimate unavailable",
+                                 positive=True)
+    max_att_age_s: float = param(0.5, "older attitude makes the estimate unavailable",
+                                 positive=True)
+    p_alpha_rad2: float = param(1.0e-6, "arrival-cost weight P of alpha (eq. 22)",
+                                positive=True, unit="si")
+    p_v_m2ps2: float = param(1.0e-2, "arrival-cost weight P of V_g (eq. 22)", positive=True)
+    p_w_m2ps2: float = param(1.0e-2, "arrival-cost weight P of W_x, W_z (eq. 22; p_w of "
+                             "Wan2018 Figs. 3-5)", positive=True)
+    q_alpha_rad2ps2: float = param(1.0e-4, "process weight Q of alpha (eq. 22)", positive=True,
+                                   unit="si")
+    q_v_m2ps4: float = param(0.25, "process weight Q of V_g (eq. 22)", positive=True)
+    q_w_m2ps4: float = param(25.0, "process weight Q of the wind rates u_w (eq. 22; Wan2018 "
+                             "Fig. 4 uses 1, see the class docstring)", positive=True)
+    r_vg_m2ps2: float = param(0.01, "measurement weight R of V_g (added: V_g is measured too)",
+                              positive=True)
+    r_vz_m2ps2: float = param(0.04, "measurement weight R of V_z (Wan2018 sec. VI-A: noise "
+                              "variance)", positive=True)
+    r_alpha_rad2: float = param(3.0e-6, "measurement weight R of alpha, (0.1 deg)^2",
+                                positive=True, unit="si")
+    r_vc_m2ps2: float = param(0.25, "measurement weight R of V_c, (0.5 m/s)^2", positive=True)
+    wind_x_max_mps: float = param(20.0, "fixed |W_x| bound (eq. 21b) when no weather "
+                                  "envelope is given", positive=True)
+    wind_z_max_mps: float = param(8.0, "fixed |W_z| bound (eq. 21b) when no weather envelope "
+                                  "is given", positive=True)
+    wind_rate_max_mps2: float = param(2.0, "fixed |u_w| bound (eq. 21b) when no weather "
+                                      "envelope is given", positive=True)
+    envelope: WindEnvelope | None = param(None, "the declared weather ([airdata.weather])",
+                                          toml=False)
+    wind_accel_in_alpha: bool = param(True, "keep eq. 8's wind-acceleration term in "
+                                      "alpha_dot (false = Wan2018 eq. 13 exactly)")
+    lateral_terms: bool = param(False, "bank and sideslip in eqs. 12-15 (ours; "
+                                "models.airdata.lateral); false = Wan2018's wings-level forms")
+    step_aligned_rates: bool = param(True, "q, A_x, A_z of the step k-1 -> k are the IMU "
+                                     "averages over (t_{k-1}, t_k] (false: the previous "
+                                     "interval's, which lag by one t_s)")
+    kappa_init: float = param(1.0e-2, "initial barrier parameter of the interior point "
+                              "(Wan2018 Algorithm 2)", positive=True)
+    n_s_max: int = param(12, "largest number of interior-point iterations per step",
+                         positive=True)
 
 
 class AirDataEstimator:
@@ -320,7 +329,11 @@ class AirDataEstimator:
             return p
         roll = float(frame.euler_rad[0]) if frame.euler_rad is not None else 0.0
         if self._t_prev_us is None or self._theta_prev is None:
-            self._schedule_bounds(theta_p, self.cfg.dt_nominal_s, roll)
+            # the first node's bounds need t_s: the stream's measured period
+            if self.cfg.envelope is not None and not math.isfinite(frame.air_period_s):
+                p.theta_p, p.reason = None, "air-data sample period not measured yet"
+                return p
+            self._schedule_bounds(theta_p, frame.air_period_s, roll)
             p.reason = "initialised"
             return p
         dt_s = (frame.t_us - self._t_prev_us) * 1e-6

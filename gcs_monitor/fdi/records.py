@@ -1,14 +1,19 @@
-"""The Estimator protocol and the Estimate every estimator returns per Frame."""
+"""What a family's estimators give the FDI layer, and what one Frame produced, for the sinks.
+
+:class:`Estimate` is an estimator's output at one instant (state, reconstructed faults,
+residuals, virtual sensors); :class:`FamilyStatus` is a family's own account of whether it
+judged the sample and why not (the coverage the design asks every family to report, in the
+spirit of PX4 EKF2's aid-source status); :class:`StepOutput` gathers everything one Frame
+produced -- alarm events, estimates, redundant-set and channel statuses, family statuses -- and
+is what the sinks publish. Plain data, no behaviour.
+"""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Protocol
-
-import numpy as np
 
 from gcs_monitor.core.types import ChannelId, Vec
-from gcs_monitor.telemetry.frame import Frame
+from gcs_monitor.fdi.events import AlarmEvent, ChannelStatus, SetStatus
 
 
 @dataclass(frozen=True, slots=True)
@@ -49,15 +54,33 @@ class Estimate:
         return Estimate(name=name, t_us=t_us, available=False, reason=reason)
 
 
-class Estimator(Protocol):
-    """A small stateful object: reads Frames, keeps its filter state, returns Estimates."""
+@dataclass(frozen=True, slots=True)
+class FamilyStatus:
+    """One family's account of one Frame: did it judge, and if not, why.
 
-    name: str
+    Attributes
+    ----------
+    family : registry name (``"imu"``, ``"airdata"``)
+    t_us : vehicle time of the Frame
+    judged : the family's FDI judged a sample of this Frame
+    sample : the Frame carried a sample of the family's driving stream (air data for
+        ``airdata``, the primary IMU for ``imu``); coverage counts these
+    reason : why not judged (input missing or stale, warm-up, re-anchoring), ``""`` when judged
+    """
 
-    def step(self, frame: Frame) -> Estimate: ...
+    family: str
+    t_us: int
+    judged: bool
+    sample: bool = True
+    reason: str = ""
 
-    def reset(self) -> None: ...
 
+@dataclass
+class StepOutput:
+    """What one Frame produced (for the sinks, tests and the evaluation harness)."""
 
-def vec(*xs: float) -> Vec:
-    return np.array(xs, dtype=np.float64)
+    events: list[AlarmEvent] = field(default_factory=list)
+    estimates: list[Estimate] = field(default_factory=list)
+    sets: list[SetStatus] = field(default_factory=list)
+    channels: list[ChannelStatus] = field(default_factory=list)
+    families: list[FamilyStatus] = field(default_factory=list)

@@ -9,12 +9,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "helpers"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "helpers"))
 import airdata_synth as synth  # noqa: E402
 
 from gcs_monitor.core.types import ChannelId  # noqa: E402
 from gcs_monitor.core.units import KT2MPS  # noqa: E402
-from gcs_monitor.estimators.airdata import (  # noqa: E402
+from gcs_monitor.families.airdata.estimator import (  # noqa: E402
     VIRTUAL_AOA,
     VIRTUAL_CAS,
     AirDataEstimator,
@@ -166,7 +166,7 @@ def test_declared_envelope_schedules_bounds_and_the_solution_respects_them(
     """With a declared envelope the box of eq. 21b is recomputed at every air-data sample from
     the measured V_g, bank angle and t_s (envelope_bounds), and every CMHE solution stays in it
     (the barrier and the line search of Algorithm 1 keep the iterates strictly inside)."""
-    from gcs_monitor.estimators.airdata import AirDataEstimatorConfig
+    from gcs_monitor.families.airdata.estimator import AirDataEstimatorConfig
     from gcs_monitor.models.airdata import WindEnvelope, envelope_bounds
 
     env = WindEnvelope(wind_mps=5.0, wind_z_mps=1.0, shear_rate_mps2=0.0,

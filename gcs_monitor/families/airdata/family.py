@@ -1,0 +1,135 @@
+"""The air-data family: redundant AoA and CAS sets judged against the Wan2018 model.
+
+Per air-data sample, Wan2018 sec. III-A:
+
+1. ``predict``: the estimator's one-step-ahead ``alpha_hat_{k|k-1}``, ``V_c_hat_{k|k-1}``
+   (eq. 29 through eq. 16), before y_k is seen; on every Frame, so that each IMU sample enters
+   Theta's averages (None on Frames without air data);
+2. ``judge``: each instance's residual against it (eq. 17), RMS windows (eq. 18), n_D-of-N_eval
+   confirmation, isolation and Table I in the set monitors, then the eq. 19 fusion the MHE is
+   given (:class:`gcs_monitor.fdi.fusion.MheMeasurementFusion`);
+3. ``update``: the MHE step on that fusion (a lost set removes its row of C).
+
+Without a model reference (``estimator = "none"``) each instance is judged against its set's
+consensus. The FDI runs at the air-data rate (N_eval = 10 is 0.5 s of Wan2018's 20 Hz air
+data): windows in seconds are turned into samples with the stream's measured period, which the
+telemetry assembler reports on the Frame (``Frame.air_period_s``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any
+
+import numpy as np
+
+from gcs_monitor.families.airdata.config import AirDataFamilyConfig
+from gcs_monitor.families.airdata.estimator import AirDataEstimator
+from gcs_monitor.families.base import FamilyContext, Verdict
+from gcs_monitor.fdi.config import scheduled_threshold, set_params
+from gcs_monitor.fdi.fusion import MheMeasurementFusion
+from gcs_monitor.fdi.monitor import RedundantSetMonitor
+from gcs_monitor.fdi.records import Estimate, FamilyStatus
+from gcs_monitor.telemetry.frame import Frame
+
+SETS = ("aoa", "cas")
+
+
+def _floats(x: Any) -> list[float]:
+    """A Frame's per-instance array as a list of Python floats."""
+    return x.tolist() if isinstance(x, np.ndarray) else [float(v) for v in x]
+
+
+class AirDataFamily:
+    """Triplex air-data FDI of one vehicle (see the module docstring)."""
+
+    name = "airdata"
+
+    def __init__(self, cfg: AirDataFamilyConfig, ctx: FamilyContext, *,
+                 estimator: AirDataEstimator | None = None) -> None:
+        """``estimator`` replaces the configured one (variants in evaluations and tests)."""
+        self.cfg = cfg
+        self.ctx = ctx
+        self.estimator: AirDataEstimator | None = estimator
+        if estimator is None and cfg.estimator != "none":
+            est_cfg = dataclasses.replace(cfg.filter, envelope=cfg.weather)
+            self.estimator = AirDataEstimator(est_cfg, variant=cfg.estimator)
+        self.reference = self.estimator.name if self.estimator is not None else "voting"
+        sigma = cfg.weather.turbulence_sigma_mps  # declared weather: J_th of the sets
+        self.thresholds = {s: scheduled_threshold(getattr(cfg.fdi, s), sigma) for s in SETS}
+        # built at the first air-data sample with the stream's measured period
+        self.sets: dict[str, RedundantSetMonitor] = {}
+        self._fusion: dict[str, MheMeasurementFusion] = {}
+        self._last: Estimate | None = None
+        self._estimates: list[Estimate] = []
+
+    def predict(self, frame: Frame) -> tuple[float, float] | None:
+        """eq. 17's reference alpha_hat_{k|k-1}, V_c_hat_{k|k-1} (None without one)."""
+        return self.estimator.predict(frame) if self.estimator is not None else None
+
+    def _build_sets(self, frame: Frame) -> bool:
+        period_s = frame.air_period_s
+        if not math.isfinite(period_s):
+            return False
+        n = {"aoa": len(frame.aoa_rad), "cas": len(frame.cas_mps)}
+        for s in SETS:
+            scfg = getattr(self.cfg.fdi, s)
+            th = self.thresholds[s]
+            self.sets[s] = RedundantSetMonitor(
+                s, n[s], set_params(scfg, period_s, threshold=th, alarm=self.ctx.alarm,
+                                    classifier=self.ctx.classifier),
+                estimator=self.reference, vehicle=self.ctx.vehicle)
+            self._fusion[s] = MheMeasurementFusion(
+                n[s], th, self.sets[s].p.rms.rms_window_n, self.cfg.fusion.weight_floor_ratio,
+                scfg.equal_pair_weights)
+        return True
+
+    def judge(self, frame: Frame, prediction: tuple[float, float] | None) -> Verdict:
+        t_us = frame.t_us
+        if not frame.air_new:
+            return Verdict(FamilyStatus(self.name, t_us, False, sample=False,
+                                        reason="no new air data"))
+        if not self.sets and not self._build_sets(frame):
+            return Verdict(FamilyStatus(self.name, t_us, False,
+                                        reason="air-data sample period not measured yet"))
+        verdict = Verdict(FamilyStatus(self.name, t_us, True))
+        # Python floats and lists: numpy per-call overhead dominates for three instances
+        stale = self.ctx.stale_after_s
+        values = {"aoa": (frame.aoa_rad, frame.aoa_age_s), "cas": (frame.cas_mps, frame.cas_age_s)}
+        for k, s in enumerate(SETS):
+            mon = self.sets[s]
+            raw, age = values[s]
+            m = _floats(raw)[:mon.n]
+            valid = [math.isfinite(x) and a < stale
+                     for x, a in zip(m, _floats(age), strict=False)]
+            # eq. 17 against the prediction for this sample; update() steps on the eq. 19 fusion
+            ref = prediction[k] if prediction is not None and math.isfinite(prediction[k]) \
+                else None
+            status, events = mon.step(t_us, m, valid, ref)
+            if events:
+                verdict.events += events
+            if self.estimator is not None:
+                # eq. 19 on independent weights; Table I / sec. V-C: a lost set (no healthy
+                # instance) removes its row of C
+                fused, w = self._fusion[s].step(list(status.measured), valid, status)
+                status = dataclasses.replace(status, fused=math.nan if fused is None else fused,
+                                             weights=w)
+                verdict.fused[s] = fused
+            verdict.sets.append(status)
+        return verdict
+
+    def update(self, frame: Frame, verdict: Verdict) -> list[Estimate]:
+        """The estimator's step on the fused measurements of this air-data sample; on other
+        Frames its latest estimate."""
+        if self.estimator is None:
+            return []
+        if verdict.sets:
+            self.estimator.set_fused_measurements(verdict.fused.get("aoa"),
+                                                  verdict.fused.get("cas"))
+            self._last = self.estimator.step(frame)
+            return [self._last]
+        if frame.air_new:  # not judged (period unknown): the estimator still sees the sample
+            self._last = self.estimator.step(frame)
+            return [self._last]
+        return [self._last] if self._last is not None else []

@@ -1,0 +1,182 @@
+"""The IMU family: reconstructed accelerometer and gyro faults (Lu2016, Atmaca2025) judged per
+channel.
+
+``predict`` steps every enabled estimator (its reconstructed faults f_hat exist only after the
+filter's update, so the whole filter step is this family's prediction); ``judge`` windows each
+fault estimate (Wan2018 eq. 18 with r = f_hat), confirms, classifies and raises alarms per
+channel against that estimator's own thresholds, and turns estimator re-initialisations into
+operator notices; ``update`` has nothing to feed back (no redundant IMU set is fused yet) and
+returns the estimates.
+
+Channel windows are sized with the measured IMU sample period when judging starts (after the
+estimator's warm-up), never with an assumed rate.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+from gcs_monitor.core.types import ChannelId
+from gcs_monitor.families.base import FamilyContext, FaultEstimator, Verdict
+from gcs_monitor.families.imu.config import ImuFamilyConfig, ImuFdiSets
+from gcs_monitor.families.imu.imu_hosm import ImuHosmEstimator
+from gcs_monitor.families.imu.imu_ts import ImuTwoStageEstimator
+from gcs_monitor.fdi.config import channel_params
+from gcs_monitor.fdi.events import AlarmEvent, AlarmKind, AlarmState, ChannelStatus, FaultType
+from gcs_monitor.fdi.monitor import ChannelBank, ChannelMonitor
+from gcs_monitor.fdi.records import Estimate, FamilyStatus
+from gcs_monitor.telemetry.frame import Frame
+from gcs_monitor.telemetry.period import SamplePeriod
+
+US_PER_S = 1_000_000
+
+
+@dataclass
+class _Judged:
+    """One estimator's FDI state: its fault sets, when judging (re)starts, its channels."""
+
+    estimator: FaultEstimator
+    sets: ImuFdiSets
+    start_us: int | None = None  # fault estimates judged from this vehicle time on
+    judging: bool = False  # its channels were being judged
+    notice: AlarmEvent | None = None  # active re-initialisation notice
+    channels: tuple[ChannelId, ...] = ()
+    monitors: list[ChannelMonitor] = field(default_factory=list)
+    bank: ChannelBank | None = None
+
+
+class ImuFamily:
+    """IMU fault channels of one vehicle (see the module docstring)."""
+
+    name = "imu"
+
+    def __init__(self, cfg: ImuFamilyConfig, ctx: FamilyContext, *,
+                 estimators: Sequence[tuple[FaultEstimator, ImuFdiSets]] | None = None) -> None:
+        """``estimators`` replaces the configured ones with given (estimator, its FDI sets)
+        pairs (scripted estimators in tests, variants in evaluations)."""
+        self.cfg = cfg
+        self.ctx = ctx
+        self._warmup_us = int(cfg.warmup_s * US_PER_S)
+        if estimators is not None:
+            self._est = [_Judged(e, sets) for e, sets in estimators]
+        else:
+            self._est = []
+            if cfg.ts.enabled:
+                self._est.append(_Judged(ImuTwoStageEstimator(cfg.ts.estimator), cfg.ts.fdi))
+            if cfg.hosm.enabled:
+                self._est.append(_Judged(ImuHosmEstimator(cfg.hosm.estimator), cfg.hosm.fdi))
+        self._period = SamplePeriod()
+        self._estimates: list[Estimate] = []
+
+    @property
+    def estimators(self) -> list[FaultEstimator]:
+        return [j.estimator for j in self._est]
+
+    def predict(self, frame: Frame) -> list[Estimate]:
+        """Every estimator's step on this Frame: its fault estimates f_hat (Lu2016 eq. 60)."""
+        self._period.add(frame.t_us)
+        self._estimates = [j.estimator.step(frame) for j in self._est]
+        return self._estimates
+
+    def judge(self, frame: Frame, prediction: list[Estimate]) -> Verdict:
+        t_us = frame.t_us
+        verdict = Verdict(FamilyStatus(self.name, t_us, False, reason="no estimator"))
+        statuses = verdict.channels if self.ctx.statuses else None
+        reasons: list[str] = []
+        judged_any = False
+        for j, e in zip(self._est, prediction, strict=True):
+            if not e.available or not e.numerics_ok:
+                j.start_us = None  # (re)starts: converge again
+                reasons.append(f"{e.name}: {e.reason or 'numerical failure'}")
+                continue
+            if e.reinit:
+                # the estimator says how long its fault estimates need to re-converge; the
+                # operator is told when channels that were being judged stop being judged
+                j.start_us = t_us + int(e.reinit_warmup_s * 1e6)
+                if j.judging and j.notice is None:
+                    verdict.events.append(self._notice(t_us, j, e, AlarmState.RAISED))
+                j.judging = False
+            # Filter convergence: fault estimates are not judged during the warm-up after an
+            # estimator (re)starts (its start-up transient is up to 10x its converged
+            # fault-free level; docs/results.md, IMU family).
+            if j.start_us is None:
+                j.start_us = t_us + self._warmup_us
+            judged = t_us >= j.start_us
+            if judged:
+                j.judging = True
+                judged_any = True
+                if j.notice is not None:
+                    verdict.events.append(self._notice(t_us, j, e, AlarmState.CLEARED))
+            else:
+                reasons.append(f"{e.name}: warm-up")
+            self._judge_channels(t_us, j, e, judged, verdict, statuses)
+        if judged_any:
+            verdict.status = FamilyStatus(self.name, t_us, True)
+        elif reasons:
+            verdict.status = FamilyStatus(self.name, t_us, False, reason="; ".join(reasons))
+        return verdict
+
+    def _judge_channels(self, t_us: int, j: _Judged, e: Estimate, judged: bool,
+                        verdict: Verdict, statuses: list[ChannelStatus] | None) -> None:
+        faults = e.faults
+        chans = tuple(faults)
+        if j.channels != chans:
+            j.channels, j.monitors, j.bank = chans, [], None
+        if not j.monitors:
+            if not judged:  # windows are sized when judging starts; until then J = 0
+                if statuses is not None:
+                    sets = j.sets
+                    for ch, v in faults.items():
+                        cfg = sets.acc if ch.kind == "acc" else sets.gyro
+                        statuses.append(ChannelStatus(ch, t_us, v, 0.0, cfg.threshold, False,
+                                                      e.name))
+                return
+            self._build_channels(j, e.name)
+        values = list(faults.values())
+        if j.bank is not None:  # one numba call for all channels
+            ev = j.bank.update(t_us, values, judged, statuses)
+            if ev:
+                verdict.events += ev
+        elif statuses is not None:
+            for mon, value in zip(j.monitors, values, strict=False):
+                st, ev = mon.step(t_us, value, judged)
+                statuses.append(st)
+                if ev:
+                    verdict.events += ev
+        else:
+            for mon, value in zip(j.monitors, values, strict=False):
+                ev = mon.update(t_us, value, judged)
+                if ev:
+                    verdict.events += ev
+
+    def _build_channels(self, j: _Judged, estimator: str) -> None:
+        """Channel monitors with windows of the measured IMU period."""
+        period_s = self._period.seconds()
+        if not math.isfinite(period_s):
+            raise RuntimeError("IMU judged before its sample period was measured")
+        kw = {"alarm": self.ctx.alarm, "classifier": self.ctx.classifier}
+        params = {"acc": channel_params(j.sets.acc, period_s, **kw),
+                  "gyro": channel_params(j.sets.gyro, period_s, **kw)}
+        j.monitors = [ChannelMonitor(ch, params["acc" if ch.kind == "acc" else "gyro"],
+                                     estimator=estimator, vehicle=self.ctx.vehicle)
+                      for ch in j.channels]
+        j.bank = ChannelBank.create(j.monitors)
+
+    def _notice(self, t_us: int, j: _Judged, e: Estimate, state: AlarmState) -> AlarmEvent:
+        """Operator notice of a state re-initialisation (never a sensor-fault alarm): raised
+        when it happens, cleared when the fault channels are judged again."""
+        cleared = state is AlarmState.CLEARED
+        msg = ("fault channels judged again" if cleared else
+               e.reinit + f"; fault channels not judged for {e.reinit_warmup_s:g} s")
+        ev = AlarmEvent(t_us=t_us, channel=ChannelId("estimator", 0, e.name), state=state,
+                        kind=AlarmKind.ESTIMATOR, fault_type=FaultType.UNKNOWN,
+                        magnitude=math.nan, residual_rms=math.nan, threshold=math.nan,
+                        estimator=e.name, message=msg, vehicle=self.ctx.vehicle)
+        j.notice = None if cleared else ev
+        return ev
+
+    def update(self, frame: Frame, verdict: Verdict) -> list[Estimate]:
+        """Nothing is fused back into the IMU estimators; their estimates of this Frame."""
+        return self._estimates

@@ -1,0 +1,63 @@
+"""Measured sample period of a telemetry stream (vehicle time).
+
+Windows and timeouts are configured in seconds and turned into sample counts with the period
+the vehicle actually sends at, never with an assumed rate (style.md section 7). The period is
+the median of the last intervals between sample instants, so one late or duplicated packet
+does not move it.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+
+US_PER_S = 1_000_000
+PERIOD_INTERVALS = 16  # intervals the median runs over
+
+
+class SamplePeriod:
+    """Median interval of the last :data:`PERIOD_INTERVALS` sample instants of one stream."""
+
+    __slots__ = ("_last_us", "_dt_us")
+
+    def __init__(self) -> None:
+        self._last_us: int | None = None
+        self._dt_us: deque[int] = deque(maxlen=PERIOD_INTERVALS)
+
+    def add(self, t_us: int) -> None:
+        """One sample instant (int µs); instants not after the previous one are ignored."""
+        last = self._last_us
+        if last is not None:
+            if t_us <= last:
+                return
+            self._dt_us.append(t_us - last)
+        self._last_us = t_us
+
+    def gap(self) -> None:
+        """The next instant does not follow the last one (an input gap, a restart): no interval
+        is taken across it."""
+        self._last_us = None
+
+    @property
+    def known(self) -> bool:
+        return bool(self._dt_us)
+
+    def seconds(self) -> float:
+        """The measured period (s), NaN before two instants were seen."""
+        d = self._dt_us
+        if not d:
+            return math.nan
+        s = sorted(d)
+        n = len(s)
+        mid = n // 2
+        us = s[mid] if n % 2 else (s[mid - 1] + s[mid]) // 2
+        return us / US_PER_S
+
+    def reset(self) -> None:
+        self._last_us = None
+        self._dt_us.clear()
+
+
+def samples_in(window_s: float, period_s: float, *, minimum: int = 1) -> int:
+    """Samples of a stream of period ``period_s`` in ``window_s`` (at least ``minimum``)."""
+    return max(minimum, round(window_s / period_s))
