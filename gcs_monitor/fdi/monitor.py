@@ -324,22 +324,45 @@ class RedundantSetMonitor:
         """
         m = measured.tolist() if isinstance(measured, np.ndarray) else list(measured)
         vl = valid.tolist() if isinstance(valid, np.ndarray) else list(valid)
-        rng = self._range
-        faulty = self._faulty
         usable = [v and x == x for v, x in zip(vl, m, strict=True)]
         has_ref = reference is not None and reference == reference
-        if has_ref:
-            ref = float(reference)  # type: ignore[arg-type]
-            r = [x - ref if u else math.nan for x, u in zip(m, usable, strict=True)]
-        else:
-            healthy = [u and not f for u, f in zip(usable, faulty, strict=True)]
-            ref, r = consensus_residuals(m, usable, healthy)
+        ref, r = self._residuals(m, usable, reference if has_ref else None)
+        changed = self._isolate(m, usable, r)
+        weights, fused, n_healthy, all_faulty = self._fuse(m, usable, ref, has_ref)
+        events: list[AlarmEvent] = []
+        if changed or self._n_active:
+            events = self._alarm_step(t_us, self._faulty, self._J, self.p.threshold, has_ref,
+                                      all_faulty)
+        label = self._labels.get((n_healthy, all_faulty, has_ref))
+        if label is None:
+            label = SetConfiguration(n_healthy, self.n, all_faulty, has_ref).label
+            self._labels[(n_healthy, all_faulty, has_ref)] = label
+        status = SetStatus(name=self.name, t_us=t_us, measured=tuple(m), reference=ref,
+                           fused=fused, weights=tuple(weights), rms=tuple(self._J),
+                           threshold=self.p.threshold, faulty=tuple(self._faulty),
+                           configuration=label)
+        return status, events
 
+    def _residuals(self, m: list[float], usable: list[bool],
+                   reference: float | None) -> tuple[float, list[float]]:
+        """Stage 1, Wan2018 eq. 17: each usable instance minus the model reference, or minus the
+        set's consensus without one; NaN for the others."""
+        if reference is not None:
+            ref = float(reference)
+            return ref, [x - ref if u else math.nan for x, u in zip(m, usable, strict=True)]
+        healthy = [u and not f for u, f in zip(usable, self._faulty, strict=True)]
+        return consensus_residuals(m, usable, healthy)
+
+    def _isolate(self, m: list[float], usable: list[bool], r: list[float]) -> bool:
+        """Stage 2: frozen-signal and no-data checks, residual RMS (eq. 18) and n_D-of-N_eval
+        confirmation per instance; restarts the healthy peers' windows when one is isolated.
+        Returns whether any instance's decision changed."""
         th = self.p.threshold
         J = self._J
         rms = self._rms
         conf = self._conf
         hist = self._hist
+        faulty = self._faulty
         changed = False
         stuck = self._stuck
         fr = self._frozen
@@ -355,7 +378,7 @@ class RedundantSetMonitor:
         if self.p.no_data_n:
             self._no_data_update(usable)
         isolated = False
-        for i in rng:
+        for i in self._range:
             ri = r[i]
             if ri == ri:
                 j = rms[i].update(ri)
@@ -368,15 +391,22 @@ class RedundantSetMonitor:
             elif (stuck[i] or no_data[i]) and not faulty[i]:
                 faulty[i] = changed = isolated = True
         if isolated and self.p.restart_peers:
-            for i in rng:
+            for i in self._range:
                 if not faulty[i]:
                     rms[i].reset()
                     conf[i].reset()
                     J[i] = 0.0
         self._usable = usable
+        return changed
 
+    def _fuse(self, m: list[float], usable: list[bool], ref: float,
+              has_ref: bool) -> tuple[list[float], float, int, bool]:
+        """Stage 3, eq. 19 and Table I: weights of the healthy instances, the fused value (the
+        model estimate as virtual sensor when all are faulty), the healthy count and whether
+        the set is lost."""
+        faulty = self._faulty
         eligible = [u and not f for u, f in zip(usable, faulty, strict=True)]
-        weights = adaptive_weights(J, eligible, th, self._floor)
+        weights = adaptive_weights(self._J, eligible, self.p.threshold, self._floor)
         n_healthy = sum(eligible)
         all_faulty = all(faulty)
         if n_healthy:
@@ -388,19 +418,7 @@ class RedundantSetMonitor:
             fused = ref  # Table I: the set is dropped, the model estimate is the virtual sensor
         else:
             fused = math.nan
-
-        events: list[AlarmEvent] = []
-        if changed or self._n_active:
-            events = self._alarm_step(t_us, faulty, J, th, has_ref, all_faulty)
-
-        label = self._labels.get((n_healthy, all_faulty, has_ref))
-        if label is None:
-            label = SetConfiguration(n_healthy, self.n, all_faulty, has_ref).label
-            self._labels[(n_healthy, all_faulty, has_ref)] = label
-        status = SetStatus(name=self.name, t_us=t_us, measured=tuple(m), reference=ref,
-                           fused=fused, weights=tuple(weights), rms=tuple(J), threshold=th,
-                           faulty=tuple(faulty), configuration=label)
-        return status, events
+        return weights, fused, n_healthy, all_faulty
 
     def _no_data_update(self, usable: list[bool]) -> None:
         """No-data check: count the samples each seen instance goes without a valid value while
