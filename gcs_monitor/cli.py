@@ -173,8 +173,7 @@ def _print_summary(monitor: Any, wall_s: float) -> None:
               f"bad values {sum(lk['bad_values'].values())}, "
               f"vehicle time {v['vehicle_time_s']:.1f} s")
         for name, fam in v["families"].items():
-            why = f" ({fam['reason']})" if fam["reason"] else ""
-            print(f"  {name:9s} {fam['state']}{why}  [{fam['title']}]")
+            print("  " + family_line(name, fam))
     rows = summarise_alarms(monitor.events)
     if rows:
         print("\nalarms (first raise per channel):")
@@ -182,6 +181,16 @@ def _print_summary(monitor: Any, wall_s: float) -> None:
             print("  " + r)
     else:
         print("\nno alarms")
+
+
+def family_line(name: str, fam: dict[str, Any]) -> str:
+    """One family's state and coverage for the summary."""
+    cov = ""
+    if math.isfinite(fam["coverage_overall"]):
+        cov = (f", coverage {100 * fam['coverage_overall']:.1f} % of the flight, "
+               f"{100 * fam['coverage_recent']:.0f} % of the last window")
+    why = f"; not judged: {fam['reason']}" if fam["reason"] else ""
+    return f"{name:9s} {fam['state']}{cov}{why}  [{fam['title']}]"
 
 
 def summarise_alarms(events: Sequence[AlarmEvent]) -> list[str]:

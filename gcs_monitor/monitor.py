@@ -10,6 +10,7 @@ bytes give the same alarms.
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -19,7 +20,7 @@ from gcs_monitor.families import registry
 from gcs_monitor.families.base import Family, FamilyContext
 from gcs_monitor.fdi.alarms import LinkAlarmMonitor
 from gcs_monitor.fdi.events import AlarmEvent
-from gcs_monitor.fdi.records import FamilyStatus, StepOutput
+from gcs_monitor.fdi.records import StepOutput
 from gcs_monitor.link.decode import Decoder
 from gcs_monitor.pipeline import VehiclePipeline, build_families
 from gcs_monitor.sinks import Sink
@@ -97,7 +98,8 @@ class Monitor:
         ctx = FamilyContext(vehicle=sysid, stale_after_s=self.cfg.telemetry.stale_after_s,
                             statuses=bool(sinks) or self.on_step is not None,
                             alarm=self.cfg.alarms, classifier=self.cfg.classifier)
-        return VehiclePipeline(sysid, self.families_for(ctx), sinks=sinks)
+        return VehiclePipeline(sysid, self.families_for(ctx), sinks=sinks,
+                               coverage=self.cfg.coverage, alarm=self.cfg.alarms)
 
     def feed(self, data: bytes, wall_s: float = 0.0) -> list[AlarmEvent]:
         """Decode a chunk and run every Frame it completes; return the alarm events."""
@@ -124,16 +126,16 @@ class Monitor:
 
     def _run(self, v: VehicleState, frames: Iterable[Any]) -> list[AlarmEvent]:
         pipe = self._pipeline(v)
-        if v.assembler.reboot_pending:  # autopilot reboot: estimators and FDI start afresh
-            v.assembler.reboot_pending = False
-            # estimator states, FDI windows, latches and predictions describe the old flight:
-            # new families with the same sinks start them afresh
-            pipe = v.pipeline = self._new_pipeline(v.sysid, pipe.sinks)
-            # vehicle time restarted: without this no link check (and no LINK/reboot alarm)
-            # would run until the new clock passed the old one
-            v.next_link_check_us = 0
+        v.assembler.reboot_pending = False  # the first new-clock frame carries reset=True
         out: list[AlarmEvent] = []
         for frame in frames:
+            if frame.reset:  # autopilot reboot: estimators and FDI start afresh
+                # estimator states, FDI windows, latches and predictions describe the old
+                # flight (whose held frames came first): new families with the same sinks
+                pipe = v.pipeline = self._new_pipeline(v.sysid, pipe.sinks)
+                # vehicle time restarted: without this no link check (and no LINK/reboot alarm)
+                # would run until the new clock passed the old one
+                v.next_link_check_us = 0
             extra: list[AlarmEvent] = []
             if frame.t_us >= v.next_link_check_us and v.link_alarms is not None:
                 v.next_link_check_us = frame.t_us + self._link_check_us
@@ -175,8 +177,7 @@ class Monitor:
             vehicles[str(sysid)] = {
                 "link": v.assembler.stats.as_dict(),
                 "inputs": avail,
-                "families": family_availability(
-                    avail, self.cfg.families, v.pipeline.status if v.pipeline else {}),
+                "families": family_availability(avail, self.cfg.families, v.pipeline),
                 "alarms": v.pipeline.health()["active_alarms"] if v.pipeline else [],
                 "vehicle_time_s": v.last_t_us * 1e-6,
                 "sinks": [sink_health(s) for s in v.pipeline.sinks] if v.pipeline else [],
@@ -209,24 +210,26 @@ def sink_health(sink: Any) -> dict[str, Any]:
 
 
 def family_availability(avail: dict[str, Any], configs: Any,
-                        status: dict[str, FamilyStatus]) -> dict[str, dict[str, str]]:
-    """Per registered family: ``state`` (judging, not judging, missing inputs, disabled), why,
-    and the redundant-set instance counts of the telemetry."""
-    out: dict[str, dict[str, str]] = {}
+                        pipeline: VehiclePipeline | None) -> dict[str, dict[str, Any]]:
+    """Per registered family: ``state`` (judging, degraded, starting, unavailable, disabled),
+    its coverage (the share of the last window and of the flight it judged) and the reason it
+    did not judge; "available" means judging."""
+    out: dict[str, dict[str, Any]] = {}
     for spec in registry.FAMILIES:
         cfg = configs.get(spec.name)
+        row: dict[str, Any] = {"title": spec.title, "coverage_recent": math.nan,
+                               "coverage_overall": math.nan}
         if cfg is None or not cfg.enabled:
-            out[spec.name] = {"title": spec.title, "state": "disabled", "reason": ""}
+            out[spec.name] = row | {"state": "disabled", "reason": ""}
             continue
+        cov = pipeline.coverage.get(spec.name) if pipeline is not None else None
         missing = spec.missing_inputs(avail)
-        st = status.get(spec.name)
-        if missing:
-            state, why = "missing inputs", "missing " + ", ".join(missing)
-        elif st is None:
-            state, why = "not judging", "no frame yet"
-        elif st.judged:
-            state, why = "judging", ""
-        else:
-            state, why = "not judging", st.reason
-        out[spec.name] = {"title": spec.title, "state": state, "reason": why}
+        if cov is None or cov.state == "unavailable":
+            why = ("missing " + ", ".join(missing)) if missing else (
+                cov.coverage.reason if cov is not None else "no frame yet")
+            out[spec.name] = row | {"state": "unavailable", "reason": why}
+            continue
+        c = cov.coverage
+        out[spec.name] = row | {"state": c.state, "reason": c.reason,
+                                "coverage_recent": c.recent, "coverage_overall": c.overall}
     return out

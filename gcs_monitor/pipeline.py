@@ -14,6 +14,8 @@ from typing import Any
 from gcs_monitor.core.types import ChannelId
 from gcs_monitor.families import registry
 from gcs_monitor.families.base import Family, FamilyContext
+from gcs_monitor.fdi.alarms import AlarmParams
+from gcs_monitor.fdi.coverage import CoverageConfig, FamilyCoverage
 from gcs_monitor.fdi.events import AlarmEvent, AlarmState
 from gcs_monitor.fdi.records import FamilyStatus, StepOutput
 from gcs_monitor.sinks import Sink
@@ -34,13 +36,19 @@ class VehiclePipeline:
     vehicle : MAVLink sysid
     families : the monitored families, in the order they run
     sinks : publishers (Rerun, Zenoh, journal)
+    coverage : when a family counts as judging (monitor_degraded alarms)
+    alarm : alarm update policy
     """
 
     def __init__(self, vehicle: int, families: Sequence[Family], *,
-                 sinks: Sequence[Sink] = ()) -> None:
+                 sinks: Sequence[Sink] = (), coverage: CoverageConfig | None = None,
+                 alarm: AlarmParams | None = None) -> None:
         self.vehicle = vehicle
         self.families = list(families)
         self.sinks = list(sinks)
+        cov = coverage if coverage is not None else CoverageConfig()
+        self.coverage = {f.name: FamilyCoverage(f.name, cov, vehicle=vehicle, alarm=alarm)
+                         for f in self.families}
         self.frames = 0
         self.active: dict[ChannelId, AlarmEvent] = {}
         # each family's account of its latest sample (Frames without one do not replace it)
@@ -61,6 +69,11 @@ class VehiclePipeline:
             out.families.append(verdict.status)
             if verdict.status.sample or family.name not in self.status:
                 self.status[family.name] = verdict.status
+            cov = self.coverage[family.name]
+            degraded = cov.step(verdict.status)
+            if degraded:
+                out.events += degraded
+            out.coverage.append(cov.coverage)
         for event in out.events:
             if event.state is AlarmState.CLEARED:
                 self.active.pop(event.channel, None)

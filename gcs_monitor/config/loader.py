@@ -24,6 +24,7 @@ from gcs_monitor.core.params import KeySpec, display, in_toml, key_spec, param, 
 from gcs_monitor.families import registry
 from gcs_monitor.fdi.alarms import AlarmParams, LinkAlarmParams
 from gcs_monitor.fdi.classify import ClassifierShape
+from gcs_monitor.fdi.coverage import CoverageConfig
 
 
 class ConfigError(ValueError):
@@ -75,6 +76,8 @@ class MonitorConfig:
     alarms: AlarmParams = section(AlarmParams, "alarm update policy of every channel")
     classifier: ClassifierShape = section(ClassifierShape, "fault classification shape tests "
                                           "of every channel")
+    coverage: CoverageConfig = section(CoverageConfig, "how much of the flight each family "
+                                       "must judge (monitor_degraded alarms)")
     sinks: SinksConfig = section(SinksConfig, "outputs")
     families: Mapping[str, Any] = field(default_factory=default_families)
 
@@ -205,13 +208,14 @@ def config_from_dict(data: Mapping[str, Any], src: str = "<config>", *,
     """A :class:`MonitorConfig` from parsed TOML (``src`` names it in errors), over ``base``
     (default: the defaults)."""
     base = base if base is not None else MonitorConfig()
-    allowed = ["telemetry", "link", "alarms", "classifier", "sinks", *base.families]
+    top_names = [f.name for f in dataclasses.fields(base) if f.name != "families"]
+    allowed = [*top_names, *base.families]
     for key in data:
         if key not in allowed:
             raise ConfigError(f"{src}: unknown section [{key}]{_hint('', key)}; expected one of "
                               f"{allowed}")
     top = {name: _parse(getattr(base, name), data.get(name, {}), name, src)
-           for name in ("telemetry", "link", "alarms", "classifier", "sinks")}
+           for name in top_names}
     fams = {name: _parse(cfg, data.get(name, {}), name, src) for name, cfg in base.families.items()}
     return MonitorConfig(**top, families=fams)
 

@@ -20,6 +20,8 @@ class AlarmKind(StrEnum):
     SET_LOST = "set_lost"  # every instance of a redundant set is faulty (Wan2018 Table I)
     LINK = "link"  # link problems: never reported as a sensor fault
     ESTIMATOR = "estimator"  # estimator numerics / unavailable inputs
+    # a family judged too little of the recent flight (fdi.coverage); never a sensor fault
+    MONITOR_DEGRADED = "monitor_degraded"
 
 
 class FaultType(StrEnum):

@@ -66,6 +66,8 @@ class FamilyStatus:
     sample : the Frame carried a sample of the family's driving stream (air data for
         ``airdata``, the primary IMU for ``imu``); coverage counts these
     reason : why not judged (input missing or stale, warm-up, re-anchoring), ``""`` when judged
+    inputs : the family's inputs are in the telemetry at all (False: a copter without vanes;
+        such a family is unavailable, not degraded)
     """
 
     family: str
@@ -73,6 +75,24 @@ class FamilyStatus:
     judged: bool
     sample: bool = True
     reason: str = ""
+    inputs: bool = True
+
+
+@dataclass(frozen=True, slots=True)
+class Coverage:
+    """A family's coverage (gcs_monitor.fdi.coverage).
+
+    state : unavailable | starting | judging | degraded
+    recent : share of the Frames of the last window it judged (NaN while unavailable)
+    overall : the same since its inputs appeared
+    reason : the most frequent reason it did not judge in the window
+    """
+
+    family: str
+    state: str
+    recent: float
+    overall: float
+    reason: str
 
 
 @dataclass
@@ -84,3 +104,4 @@ class StepOutput:
     sets: list[SetStatus] = field(default_factory=list)
     channels: list[ChannelStatus] = field(default_factory=list)
     families: list[FamilyStatus] = field(default_factory=list)
+    coverage: list[Coverage] = field(default_factory=list)

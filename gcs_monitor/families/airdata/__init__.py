@@ -2,7 +2,7 @@
 (constrained MHE), residual RMS windows, adaptive fusion and output configurations."""
 
 from gcs_monitor.families.airdata.config import AirDataFamilyConfig
-from gcs_monitor.families.airdata.family import AirDataFamily
+from gcs_monitor.families.airdata.family import RATE_HZ, AirDataFamily
 from gcs_monitor.families.airdata.views import views
 from gcs_monitor.families.base import FamilySpec
 
@@ -14,7 +14,7 @@ SPEC = FamilySpec(
     inputs=(("aoa_instances", "AoA"), ("cas_instances", "CAS"), ("baro", "baro"),
             ("imu_instances", "IMU"), ("attitude", "attitude"),
             ("gps_velocity", "GPS velocity")),
-    rate_hz=(5.0, 100.0),
+    rate_hz=RATE_HZ,
     views=views,
 )
 

@@ -34,6 +34,7 @@ from gcs_monitor.fdi.records import Estimate, FamilyStatus
 from gcs_monitor.telemetry.frame import Frame
 
 SETS = ("aoa", "cas")
+RATE_HZ = (5.0, 100.0)  # air-data rates the Wan2018 model and windows are valid for
 
 
 def _floats(x: Any) -> list[float]:
@@ -63,6 +64,7 @@ class AirDataFamily:
         self._fusion: dict[str, MheMeasurementFusion] = {}
         self._last: Estimate | None = None
         self._estimates: list[Estimate] = []
+        self._inputs = False  # air data has been in the telemetry
 
     def predict(self, frame: Frame) -> tuple[float, float] | None:
         """eq. 17's reference alpha_hat_{k|k-1}, V_c_hat_{k|k-1} (None without one)."""
@@ -89,10 +91,17 @@ class AirDataFamily:
         t_us = frame.t_us
         if not frame.air_new:
             return Verdict(FamilyStatus(self.name, t_us, False, sample=False,
-                                        reason="no new air data"))
+                                        reason="no new air data", inputs=self._inputs))
+        self._inputs = True
         if not self.sets and not self._build_sets(frame):
             return Verdict(FamilyStatus(self.name, t_us, False,
                                         reason="air-data sample period not measured yet"))
+        rate = 1.0 / frame.air_period_s
+        if rate < RATE_HZ[0]:
+            return Verdict(FamilyStatus(
+                self.name, t_us, False,
+                reason=f"air data at {rate:.3g} Hz, below the {RATE_HZ[0]:g} Hz the air-data "
+                       "family needs"))
         verdict = Verdict(FamilyStatus(self.name, t_us, True))
         # Python floats and lists: numpy per-call overhead dominates for three instances
         stale = self.ctx.stale_after_s

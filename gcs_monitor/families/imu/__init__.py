@@ -3,7 +3,7 @@
 
 from gcs_monitor.families.base import FamilySpec
 from gcs_monitor.families.imu.config import ImuFamilyConfig
-from gcs_monitor.families.imu.family import ImuFamily
+from gcs_monitor.families.imu.family import RATE_HZ, ImuFamily
 from gcs_monitor.families.imu.views import views
 
 SPEC = FamilySpec(
@@ -13,7 +13,7 @@ SPEC = FamilySpec(
     build=ImuFamily,
     inputs=(("imu_instances", "IMU"), ("attitude", "attitude"),
             ("gps_velocity", "GPS velocity")),
-    rate_hz=(10.0, 400.0),
+    rate_hz=RATE_HZ,
     views=views,
 )
 

@@ -31,6 +31,9 @@ from gcs_monitor.telemetry.frame import Frame
 from gcs_monitor.telemetry.period import SamplePeriod
 
 US_PER_S = 1_000_000
+# IMU rates the estimators are valid for (their discretisation follows the measured step; below
+# 10 Hz the attitude kinematics between samples is not resolved; docs/results.md, rate sweep)
+RATE_HZ = (10.0, 400.0)
 
 
 @dataclass
@@ -69,6 +72,7 @@ class ImuFamily:
                 self._est.append(_Judged(ImuHosmEstimator(cfg.hosm.estimator), cfg.hosm.fdi))
         self._period = SamplePeriod()
         self._estimates: list[Estimate] = []
+        self._inputs = False  # attitude and GPS velocity have been in the telemetry
 
     @property
     def estimators(self) -> list[FaultEstimator]:
@@ -82,11 +86,21 @@ class ImuFamily:
 
     def judge(self, frame: Frame, prediction: list[Estimate]) -> Verdict:
         t_us = frame.t_us
-        verdict = Verdict(FamilyStatus(self.name, t_us, False, reason="no estimator"))
+        if not self._inputs:
+            self._inputs = frame.euler_rad is not None and frame.gps_vel_ned_mps is not None
+        inputs = self._inputs
+        verdict = Verdict(FamilyStatus(self.name, t_us, False, reason="no estimator",
+                                       inputs=inputs))
+        slow = self._too_slow()
         statuses = verdict.channels if self.ctx.statuses else None
         reasons: list[str] = []
         judged_any = False
         for j, e in zip(self._est, prediction, strict=True):
+            if slow:  # outside the family's rate range: nothing is judged, whatever else
+                j.start_us = None
+                reasons = [slow]
+                self._judge_channels(t_us, j, e, False, verdict, statuses)
+                continue
             if not e.available or not e.numerics_ok:
                 j.start_us = None  # (re)starts: converge again
                 reasons.append(f"{e.name}: {e.reason or 'numerical failure'}")
@@ -113,10 +127,23 @@ class ImuFamily:
                 reasons.append(f"{e.name}: warm-up")
             self._judge_channels(t_us, j, e, judged, verdict, statuses)
         if judged_any:
-            verdict.status = FamilyStatus(self.name, t_us, True)
+            verdict.status = FamilyStatus(self.name, t_us, True, inputs=inputs)
         elif reasons:
-            verdict.status = FamilyStatus(self.name, t_us, False, reason="; ".join(reasons))
+            verdict.status = FamilyStatus(self.name, t_us, False,
+                                          reason="; ".join(dict.fromkeys(reasons)),
+                                          inputs=inputs)
         return verdict
+
+    def _too_slow(self) -> str:
+        """Why the IMU rate is outside the family's range (empty when it is inside or not
+        measured yet)."""
+        period = self._period.seconds()
+        if not math.isfinite(period):
+            return ""
+        rate = 1.0 / period
+        if rate < RATE_HZ[0]:
+            return f"IMU at {rate:.3g} Hz, below the {RATE_HZ[0]:g} Hz the IMU family needs"
+        return ""
 
     def _judge_channels(self, t_us: int, j: _Judged, e: Estimate, judged: bool,
                         verdict: Verdict, statuses: list[ChannelStatus] | None) -> None:

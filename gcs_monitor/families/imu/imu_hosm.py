@@ -65,6 +65,7 @@ from gcs_monitor.models.kinematics_body import (
     fault_from_drift_rate,
 )
 from gcs_monitor.telemetry.frame import Frame
+from gcs_monitor.telemetry.period import SamplePeriod
 
 log = logging.getLogger(__name__)
 
@@ -127,6 +128,8 @@ class ImuHosmConfig:
                                  positive=True)
     max_dt_s: float = param(0.1, "a larger gap between frames resets the filter",
                             positive=True)
+    max_gap_periods: float = param(2.5, "the gap limit is at least this many measured sample "
+                                   "periods (a slow IMU is not a gap)", positive=True)
     mapping: str = param("exact", "drift-rate to fault mapping: exact, flat, or paper (eq. 51 "
                          "as printed); see the module docstring",
                          choices=("exact", "flat", "paper"))
@@ -203,6 +206,7 @@ class ImuHosmEstimator:
         self._f_hat: Vec = np.zeros(N_STATE)
         self._f_int: Vec = np.zeros(N_STATE)
         self._t_prev_us: int | None = None
+        self._period = SamplePeriod()  # of its usable samples: the gap limit
 
     # ------------------------------------------------------------------ helpers
     def _init(self, y: Vec) -> None:
@@ -293,7 +297,10 @@ class ImuHosmEstimator:
         st, reason = self._frame_inputs(frame)
         if st is None:
             return Estimate.unavailable(self.name, frame.t_us, reason)
-        if self._filt is None or st.dt_s <= 0.0 or st.dt_s > self.cfg.max_dt_s:
+        self._period.add(frame.t_us)
+        max_dt_s = max(self.cfg.max_dt_s, self.cfg.max_gap_periods * self._period.seconds()) \
+            if self._period.known else self.cfg.max_dt_s
+        if self._filt is None or st.dt_s <= 0.0 or st.dt_s > max_dt_s:
             if self._filt is not None:
                 log.info("imu_hosm: frame gap %.3f s, reset", st.dt_s)
             self._init(st.y)

@@ -120,6 +120,8 @@ class ImuTsConfig:
     max_dt_s: float = param(0.1, "after a larger gap between usable samples the states are "
                             "re-anchored on the measurement (fault estimates kept when the "
                             "filter had converged), else the filter restarts", positive=True)
+    max_gap_periods: float = param(2.5, "the gap limit is at least this many measured sample "
+                                   "periods (a slow IMU is not a gap)", positive=True)
     gate: GateConfig = section(GateConfig, "input-validity term and GPS-velocity / attitude "
                                "step gates (ours, families/imu/gating.py; GS-KM only)")
     start_warmup_s: float = param(5.0, "convergence time of the fault estimates after a "
@@ -173,7 +175,7 @@ class ImuTwoStageEstimator:
         self._u_prev_l: list[float] = []
         self._r_prev = [0.0] * 6  # previous measured minus estimated output (gates)
         self._t_prev_us = 0
-        self._period = SamplePeriod()  # of the filter's steps (re-anchoring over a gap)
+        self._period = SamplePeriod()  # of its usable samples: gap limit, re-anchoring
         self._t_start_us = 0  # time of the last full (re)start
         # Compiled hot path (GS-KM, numba): the model kernels write F, G and the propagated
         # x_bar into these work arrays and PackedTwoStage runs the filter step in one call; the
@@ -215,7 +217,10 @@ class ImuTwoStageEstimator:
         if not _all_finite(u_m):
             return Estimate.unavailable(self.name, frame.t_us, "imu sample not finite")
         dt_s = (frame.t_us - self._t_prev_us) * 1e-6
-        if self._state is None or self._u_prev is None or not 0.0 < dt_s <= cfg.max_dt_s:
+        self._period.add(frame.t_us)
+        max_dt_s = max(cfg.max_dt_s, cfg.max_gap_periods * self._period.seconds()) \
+            if self._period.known else cfg.max_dt_s
+        if self._state is None or self._u_prev is None or not 0.0 < dt_s <= max_dt_s:
             converged = frame.t_us - self._t_start_us >= cfg.start_warmup_s * 1e6
             if self._state is not None and dt_s > 0.0 and cfg.gate.enabled and converged:
                 self._state = self._reanchor(self._state, y, dt_s)
@@ -226,8 +231,6 @@ class ImuTwoStageEstimator:
                 why, warm = "start", cfg.start_warmup_s
                 self._t_start_us = frame.t_us
             self._u_prev, self._u_prev2, self._t_prev_us = u_m, None, frame.t_us
-            self._period.gap()
-            self._period.add(frame.t_us)
             self._u_prev_l = u_m.tolist()
             self._r_prev = [0.0] * 6
             for g in self._gates:
@@ -237,7 +240,6 @@ class ImuTwoStageEstimator:
         s = self._state
         if s.k == 0:  # the first step after a start: Q^f for the measured sample interval
             s = replace(s, Qf=self.qf0(dt_s))
-        self._period.add(frame.t_us)
         y = y.copy()
         y[5] = s.x[5] + _wrap_pi(y[5] - s.x[5])  # heading innovation across +-pi
         noise, extra = self._noise, None
