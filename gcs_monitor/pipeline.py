@@ -58,7 +58,7 @@ IMU_FDI_SETS_DEFAULT = ("acc", "gyro")
 IMU_WARMUP_US = 5_000_000  # IMU fault estimates are judged 5 s after an estimator (re)start
 # Floor on J in the eq. 19 weights of the MHE's measurement, as a fraction of J_th: residual RMS
 # below the fault-free level (model error + noise) carries no fault information (see
-# MheMeasurementFusion and docs/papers-notes.md "Wan2018: slow drift").
+# MheMeasurementFusion and docs/papers-notes.md "Slow drift and the MHE's measurement fusion").
 AIR_WEIGHT_FLOOR_RATIO = 0.25
 
 
@@ -250,7 +250,8 @@ class VehiclePipeline:
                 self._est_judging.discard(e.name)
             # Filter convergence: fault estimates are not judged during the first
             # IMU_WARMUP_US after an estimator (re)starts (its start-up transient is up to
-            # 10x its converged fault-free level; see docs/results.md, issue 4).
+            # 10x its converged fault-free level; see docs/results.md, "Detection and isolation
+            # with imu_ts").
             t0 = self._est_start_us.setdefault(e.name, frame.t_us + IMU_WARMUP_US)
             judged = frame.t_us >= t0
             if judged:

@@ -85,7 +85,7 @@ class FdiConfig:
     # the same way on its own fault-free runs (same calibration seeds 101, 102, not the
     # evaluation seeds): `gcs-monitor evaluate --experiment imu_detection_hosm` prints them
     # (acc 0.6345 m/s^2, gyro 0.2411 deg/s with the exact drift-to-fault map of Atmaca2025
-    # eq. 51; docs/results.md issue 4). Defaults rounded up.
+    # eq. 51; docs/results.md, "Detection and isolation with imu_hosm"). Defaults rounded up.
     acc_hosm: SetConfig = field(default_factory=lambda: SetConfig(threshold=HOSM_ACC_MPS2,
                                                                   n_eval=50, n_detect=40,
                                                                   latch=False))
@@ -135,7 +135,7 @@ class AirDataConfig:
     wind_accel_in_alpha: bool = True  # eq. 8 term in the model (False: Wan2018 eq. 13)
     # bank and sideslip in eqs. 12-15 (models.airdata.lateral; ours). On by default: with the
     # wings-level forms a calm 31 deg-bank s-turn gives 1.2 deg of fault-free AoA J, above the
-    # campaign's J_th (docs/results.md, Wan2018 campaign). False: Wan2018's forms exactly, as
+    # campaign's J_th (docs/results.md, "Wan2018's scheme"). False: Wan2018's forms exactly, as
     # the paper reproductions (evaluation.wan2018.variant_config) use them.
     lateral_terms: bool = True
 

@@ -107,7 +107,7 @@ class ImuTsConfig:
     gate : input-validity term and GPS-velocity step gate (:mod:`gating`; GS-KM only)
     start_warmup_s : convergence time of the fault estimates after a (re)start, s (the FDI
         does not judge them before; the start-up transient is up to 10x the converged level,
-        docs/results.md issue 4)
+        docs/results.md, "Detection and isolation with imu_ts")
     reanchor_warmup_s : the same after a re-anchoring of the states with the fault
         estimates kept (input gap, rejected velocity step), s
     """
