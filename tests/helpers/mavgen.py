@@ -17,16 +17,12 @@ functions. Packets are ``(t_us, bytes)`` pairs in send order.
 from __future__ import annotations
 
 import math
-import os
 import struct
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 import numpy as np
-
-os.environ.setdefault("MAVLINK20", "1")
-os.environ.setdefault("MAVLINK_DIALECT", "ardupilotmega")
-from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 Packet = tuple[int, bytes]
 TLOG_EPOCH_US = 1_700_000_000_000_000
