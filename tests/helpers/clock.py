@@ -17,20 +17,12 @@ class FakeClock:
 
     def __init__(self, t0_s: float = 1000.0) -> None:
         self.now_s = t0_s
-        self.sleeps_s: list[float] = []
 
     def monotonic(self) -> float:
         return self.now_s
 
-    def time(self) -> float:
-        return self.now_s
-
-    def perf_counter(self) -> float:
-        return self.now_s
-
     def sleep(self, dt_s: float) -> None:
         assert dt_s >= 0.0, dt_s  # time.sleep rejects negative delays
-        self.sleeps_s.append(dt_s)
         self.now_s += dt_s
 
     def advance(self, dt_s: float) -> None:
