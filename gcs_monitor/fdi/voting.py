@@ -103,11 +103,6 @@ def median_of(values: Sequence[float]) -> float:
     return s[h] if n % 2 else 0.5 * (s[h - 1] + s[h])
 
 
-def median_select(values: Sequence[float], usable: Sequence[bool]) -> float:
-    """Median of the usable instances (industry mid-value select); NaN if none usable."""
-    return median_of([v for v, u in zip(values, usable, strict=True) if u])
-
-
 def majority_vote(
     values: Sequence[float], usable: Sequence[bool], tolerance: float
 ) -> list[bool]:

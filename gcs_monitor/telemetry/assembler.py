@@ -438,9 +438,6 @@ class FrameAssembler:
         return []
 
     # air data and surfaces ----------------------------------------------------------------------
-    def _arrival_us(self) -> int:
-        return self._now_us
-
     def _airspeed(self, m: Any) -> list[Frame]:
         i = m.id
         v = m.airspeed
