@@ -82,7 +82,7 @@ def stage_assemble(chunks: list[tuple[bytes, float]]) -> int:
             sysid = m._header.srcSystem
             a = asm.get(sysid)
             if a is None:
-                a = asm[sysid] = FrameAssembler(dec.vehicle_stats(sysid))
+                a = asm[sysid] = FrameAssembler(stats=dec.vehicle_stats(sysid))
             n += len(a.push(m))
     return n
 

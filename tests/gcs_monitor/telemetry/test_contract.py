@@ -40,7 +40,7 @@ def test_only_flag_and_display_rows_have_no_scale():
 def test_round_trip_of_every_contract_field():
     g = MavGen()
     d = Decoder()
-    asm = FrameAssembler(d.vehicle_stats(1), align_delay_us=100_000, gps_delay_us=100_000)
+    asm = FrameAssembler(stats=d.vehicle_stats(1), align_delay_us=100_000, gps_delay_us=100_000)
     frames = []
     for m in d.feed(b"".join(p for _, p in g.packets(2.0)), 0.0):
         frames += asm.push(m)
