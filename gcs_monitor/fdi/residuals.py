@@ -90,10 +90,6 @@ class ResidualRms:
         s = self._sum
         return math.sqrt(s / self._n) if s > 0.0 else 0.0
 
-    def exact(self) -> float:
-        """J recomputed exactly from the buffer (for tests and diagnostics)."""
-        return math.sqrt(math.fsum(self._buf) / self._n)
-
     def window(self) -> list[float]:
         """Squared residuals in the window, oldest first."""
         if self._count < self._n:
