@@ -34,8 +34,6 @@ from collections.abc import Callable
 from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-os.environ.setdefault("MAVLINK20", "1")
-os.environ.setdefault("MAVLINK_DIALECT", "ardupilotmega")
 
 from gcs_monitor.config import MonitorConfig  # noqa: E402
 from gcs_monitor.link.decode import Decoder  # noqa: E402
@@ -84,7 +82,7 @@ def stage_assemble(chunks: list[tuple[bytes, float]]) -> int:
             sysid = m._header.srcSystem
             a = asm.get(sysid)
             if a is None:
-                a = asm[sysid] = FrameAssembler(dec.vehicle_stats(sysid))
+                a = asm[sysid] = FrameAssembler(stats=dec.vehicle_stats(sysid))
             n += len(a.push(m))
     return n
 

@@ -19,8 +19,6 @@ import time
 from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-os.environ.setdefault("MAVLINK20", "1")
-os.environ.setdefault("MAVLINK_DIALECT", "ardupilotmega")
 
 from sim_vehicle.mavlink_out import TlogWriter  # noqa: E402
 from sim_vehicle.run import iter_run, make_simulation, run_scenario  # noqa: E402

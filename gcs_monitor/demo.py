@@ -13,6 +13,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from gcs_monitor.console import format_event
 from gcs_monitor.core.types import ChannelId
 from gcs_monitor.fdi.events import AlarmEvent, AlarmKind, AlarmState
 
@@ -105,8 +106,6 @@ def run_demo(out: Path, *, preset: str = "demo_airdata_faults") -> int:
     t_mon = time.monotonic() - t1
     print(f"      {len(mon.events)} alarm events in {t_mon:.1f} s "
           f"({sc.duration_s / t_mon:.0f}x real time)")
-    from gcs_monitor.cli import format_event
-
     print("[3/3] alarms against the scenario's faults")
     for ev in mon.events:
         print("      " + format_event(ev))

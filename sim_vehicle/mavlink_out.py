@@ -31,22 +31,20 @@ from pathlib import Path
 from types import TracebackType
 from typing import BinaryIO, cast
 
-os.environ.setdefault("MAVLINK20", "1")
-os.environ.setdefault("MAVLINK_DIALECT", "ardupilotmega")
-import numpy as np  # noqa: E402
-from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
+import numpy as np
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from gcs_monitor.core.atmosphere import impact_pressure_pa
+from gcs_monitor.core.units import PA2HPA, RAD2DEG, RAD2DEGE7
+from sim_vehicle.sensors.channels import N_AIRDATA
+from sim_vehicle.sensors.suite import SensorSample
+from sim_vehicle.state import TrueState
 
 _mcrf4xx: Callable[[bytes, int], int] | None
 try:  # the C CRC pymavlink itself uses when available
-    from fastcrc.crc16 import mcrf4xx as _mcrf4xx  # noqa: E402
+    from fastcrc.crc16 import mcrf4xx as _mcrf4xx
 except ImportError:  # pragma: no cover - pure-Python fallback
     _mcrf4xx = None
-
-from gcs_monitor.core.atmosphere import impact_pressure_pa  # noqa: E402
-from gcs_monitor.core.units import PA2HPA, RAD2DEG, RAD2DEGE7  # noqa: E402
-from sim_vehicle.sensors.channels import N_AIRDATA  # noqa: E402
-from sim_vehicle.sensors.suite import SensorSample  # noqa: E402
-from sim_vehicle.state import TrueState  # noqa: E402
 
 TLOG_EPOCH_US = 1_700_000_000_000_000  # fixed wall epoch: tlog timestamps = epoch + vehicle time
 KELVIN_0C = 273.15

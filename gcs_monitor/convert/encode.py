@@ -13,11 +13,9 @@ from pathlib import Path
 from types import TracebackType
 from typing import BinaryIO
 
-os.environ.setdefault("MAVLINK20", "1")
-os.environ.setdefault("MAVLINK_DIALECT", "ardupilotmega")
-from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from gcs_monitor.core.units import CM2M, RAD2DEG, RAD2DEGE7  # noqa: E402
+from gcs_monitor.core.units import CM2M, RAD2DEG, RAD2DEGE7
 
 TLOG_EPOCH_US = 1_700_000_000_000_000  # fixed wall epoch so converted tlogs are reproducible
 

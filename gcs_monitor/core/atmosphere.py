@@ -34,16 +34,6 @@ def isa_density_kgpm3(alt_m: float) -> float:
     return isa_pressure_pa(alt_m) / (c.ISA_R_JPKGK * isa_temperature_k(alt_m))
 
 
-def pressure_altitude_m(p_pa: float) -> float:
-    """Inverse of :func:`isa_pressure_pa`."""
-    return cast(float,
-                c.ISA_T0_K / c.ISA_LAPSE_KPM * ((p_pa / c.ISA_P0_PA) ** (1.0 / _GAS_EXP) - 1.0))
-
-
-def speed_of_sound_mps(temp_k: float) -> float:
-    return math.sqrt(c.ISA_GAMMA * c.ISA_R_JPKGK * temp_k)
-
-
 def cas_from_tas(tas_mps: float, alt_m: float, temp_k: float | None = None) -> float:
     """Calibrated airspeed from true airspeed (Wan2018 eq. 16).
 

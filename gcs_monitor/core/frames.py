@@ -61,20 +61,6 @@ def dcm_from_quat(q: Vec) -> Mat:
     )
 
 
-def quat_multiply(a: Vec, b: Vec) -> Vec:
-    """Hamilton product a * b of scalar-first quaternions."""
-    w1, x1, y1, z1 = a
-    w2, x2, y2, z2 = b
-    return np.array(
-        [
-            w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
-            w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-            w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
-            w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
-        ]
-    )
-
-
 def euler_rates(phi: float, theta: float, omega_frd_radps: Vec) -> Vec:
     """Euler angle rates [phi_dot, theta_dot, psi_dot] from body rates (Lu2016 eq. 18, rows 4-6)."""
     p, q, r = omega_frd_radps
@@ -83,20 +69,3 @@ def euler_rates(phi: float, theta: float, omega_frd_radps: Vec) -> Vec:
     return np.array(
         [p + q * sph * tth + r * cph * tth, q * cph - r * sph, (q * sph + r * cph) / cth]
     )
-
-
-def wrap_pi(angle_rad: float) -> float:
-    """Wrap an angle to (-pi, pi]."""
-    a = math.fmod(angle_rad + math.pi, 2.0 * math.pi)
-    if a <= 0.0:
-        a += 2.0 * math.pi
-    return a - math.pi
-
-
-def wind_axes(vel_air_frd_mps: Vec) -> tuple[float, float, float]:
-    """True airspeed, angle of attack and sideslip (m/s, rad, rad) of body-axis air velocity."""
-    u, v, w = vel_air_frd_mps
-    tas = math.sqrt(u * u + v * v + w * w)
-    aoa = math.atan2(w, u)
-    ssa = math.asin(max(-1.0, min(1.0, v / tas))) if tas > 0.0 else 0.0
-    return tas, aoa, ssa

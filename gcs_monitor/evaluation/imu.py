@@ -6,8 +6,9 @@ Frame with ``Monitor(on_step=...)``; the true fault of each IMU channel is the s
 ``suite.fault_log`` (the value added to the healthy sample), interpolated to the Frame times.
 
 Scoring windows (same for every estimator): the fault window is scored from 1 s after it opens to
-its end (a step fault needs a few hundred ms to be followed, as in docs/papers-notes.md); the
-fault-free windows are [2 s, first fault start) and [last fault end + 2 s, end of run).
+its end (a step fault needs a few hundred ms to be followed, as in docs/results.md, "Synthetic
+truth"); the fault-free windows are [2 s, first fault start) and [last fault end + 2 s, end of
+run).
 
 Experiments (``experiments()``; each takes ``(out_dir, jobs, quick)`` and returns Markdown):
 

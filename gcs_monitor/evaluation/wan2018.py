@@ -902,9 +902,10 @@ def truncate_flight(flight: Any, t_end_s: float) -> Any:
 
 def light_aircraft_config() -> Any:
     """CMHE tuning for a light aircraft at 46-75 kts (configuration, not code; see
-    docs/papers-notes.md "Wan2018: low speed"). Model-error weights scaled by about
-    (V_transport / V_light)^2 ~ 10-25 against the transport defaults; wind bounds for a
-    calm-air flight-test day: |W_x| <= 15 m/s, |W_z| <= 3 m/s, wind rate <= 0.5 m/s^2."""
+    docs/papers-notes.md, Wan2018, "Low speed (46-75 kt) and the OnSpeed tuning"). Model-error
+    weights scaled by about (V_transport / V_light)^2 ~ 10-25 against the transport defaults;
+    wind bounds for a calm-air flight-test day: |W_x| <= 15 m/s, |W_z| <= 3 m/s, wind rate
+    <= 0.5 m/s^2."""
     from gcs_monitor.families.airdata.estimator import AirDataEstimatorConfig
 
     return AirDataEstimatorConfig(

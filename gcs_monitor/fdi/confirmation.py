@@ -99,12 +99,6 @@ class Confirmation:
                 self._below = 0
         return self._faulty
 
-    def force(self, faulty: bool) -> None:
-        """Set the decision from outside (set-level logic: last-two disagreement)."""
-        self._faulty = faulty
-        self._latched = faulty and self.p.latch
-        self._below = 0
-
     def reset(self) -> None:
         self._win = [False] * self.p.eval_n
         self._idx = 0

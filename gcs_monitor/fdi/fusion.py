@@ -2,7 +2,8 @@
 
 FDI policy: which instances feed the model and with which weights. The set monitor
 (:class:`gcs_monitor.fdi.monitor.RedundantSetMonitor`) decides who is faulty; this decides what
-the estimator is told the quantity is (docs/papers-notes.md, "Wan2018: slow drift").
+the estimator is told the quantity is (docs/papers-notes.md, "Slow drift and the MHE's
+measurement fusion").
 """
 
 from __future__ import annotations

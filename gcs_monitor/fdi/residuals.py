@@ -90,10 +90,6 @@ class ResidualRms:
         s = self._sum
         return math.sqrt(s / self._n) if s > 0.0 else 0.0
 
-    def exact(self) -> float:
-        """J recomputed exactly from the buffer (for tests and diagnostics)."""
-        return math.sqrt(math.fsum(self._buf) / self._n)
-
     def window(self) -> list[float]:
         """Squared residuals in the window, oldest first."""
         if self._count < self._n:
@@ -106,15 +102,3 @@ class ResidualRms:
         self._sum = 0.0
         self._count = 0
         self._since_recompute = 0
-
-
-def rms_window_batch(residual: list[float] | tuple[float, ...], rms_window_n: int) -> list[float]:
-    """Reference O(N * N_eval) implementation of Wan2018 eq. 18 over a whole sequence.
-
-    Same start-up convention as :class:`ResidualRms` (divide by N_eval from the start).
-    """
-    out: list[float] = []
-    for k in range(len(residual)):
-        lo = max(0, k - rms_window_n + 1)
-        out.append(math.sqrt(math.fsum(r * r for r in residual[lo : k + 1]) / rms_window_n))
-    return out

@@ -1,5 +1,5 @@
-"""Adaptive weighted fusion of redundant sensors (Wan2018 eq. 19), output configurations
-(Wan2018 Table I), and the median / majority-vote helpers used by the baselines.
+"""Adaptive weights for the fusion of redundant sensors (Wan2018 eq. 19), the per-set output
+configuration (Wan2018 Table I), and the median used by the isolation and the baselines.
 
 Plain Python floats and lists: a redundant set has 2-4 instances and numpy's per-call
 overhead (~1 µs) would dominate at that size.
@@ -10,7 +10,6 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from enum import StrEnum
 
 
 def rms_floor_from_noise(noise_sigma: float) -> float:
@@ -71,17 +70,6 @@ def adaptive_weights(
     return [w / total for w in inv]
 
 
-def weighted_fusion(values: Sequence[float], weights: Sequence[float]) -> float:
-    """Weighted mean ``sum beta_i * y_i`` (Wan2018 eq. 19); NaN if all weights are 0."""
-    acc = 0.0
-    total = 0.0
-    for v, w in zip(values, weights, strict=True):
-        if w > 0.0:
-            acc += w * v
-            total += w
-    return acc / total if total > 0.0 else math.nan
-
-
 def median_of(values: Sequence[float]) -> float:
     """Median of a short list (mean of the two middle values for even length); NaN if empty."""
     n = len(values)
@@ -103,73 +91,17 @@ def median_of(values: Sequence[float]) -> float:
     return s[h] if n % 2 else 0.5 * (s[h - 1] + s[h])
 
 
-def median_select(values: Sequence[float], usable: Sequence[bool]) -> float:
-    """Median of the usable instances (industry mid-value select); NaN if none usable."""
-    return median_of([v for v, u in zip(values, usable, strict=True) if u])
-
-
-def majority_vote(
-    values: Sequence[float], usable: Sequence[bool], tolerance: float
-) -> list[bool]:
-    """Majority vote: instance i is kept when it and the usable instances within
-    ``tolerance`` (SI) of it form a strict majority of the usable instances.
-    Returns (n,) agree flags (False where unusable).
-
-    With three instances a single outlier is voted out; with two instances in the same
-    wrong place the good one is the one voted out (the failure Wan2018 sec. I describes).
-    """
-    n = len(values)
-    idx = [i for i in range(n) if usable[i]]
-    out = [False] * n
-    for i in idx:
-        others = [j for j in idx if j != i]
-        agree = sum(1 for j in others if abs(values[i] - values[j]) <= tolerance)
-        out[i] = 2 * (1 + agree) > len(idx)
-    return out
-
-
-class OutputConfiguration(StrEnum):
-    """Wan2018 Table I: which fused air-data outputs enter the estimator's output (20d).
-
-    The table, read column by column (its layout is garbled in the text copy, the rows are
-    reconstructed from sec. III-C and the observability remarks):
-
-    - I   (N_alpha^f < 3, N_vc^f < 3): y = [V_g,m, V_z,m, alpha_m, V_c,m]
-    - II  (N_alpha^f = 3, N_vc^f < 3): y = [V_g,m, V_z,m, V_c,m]
-    - III (N_alpha^f < 3, N_vc^f = 3): y = [V_g,m, V_z,m, alpha_m]
-    - IV  (N_alpha^f = 3, N_vc^f = 3): y = [V_g,m, V_z,m]
-
-    So a set keeps feeding its fused value while at least one instance is healthy, whatever
-    the number of faulty ones; only when all are faulty is it dropped and its value comes
-    from the model estimate alone (virtual sensor).
-    """
-
-    I = "I"  # noqa: E741  (the paper's name)
-    II = "II"
-    III = "III"
-    IV = "IV"
-
-
-def output_configuration(aoa_lost: bool, cas_lost: bool) -> OutputConfiguration:
-    """Wan2018 Table I category from whether every AoA / every CAS instance is faulty."""
-    if aoa_lost:
-        return OutputConfiguration.IV if cas_lost else OutputConfiguration.II
-    return OutputConfiguration.III if cas_lost else OutputConfiguration.I
-
-
-def output_vector_names(config: OutputConfiguration) -> tuple[str, ...]:
-    """Names of the outputs in (20d) for a Table I configuration."""
-    return {
-        OutputConfiguration.I: ("gs_mps", "vz_mps", "aoa_rad", "cas_mps"),
-        OutputConfiguration.II: ("gs_mps", "vz_mps", "cas_mps"),
-        OutputConfiguration.III: ("gs_mps", "vz_mps", "aoa_rad"),
-        OutputConfiguration.IV: ("gs_mps", "vz_mps"),
-    }[config]
-
-
 @dataclass(frozen=True, slots=True)
 class SetConfiguration:
-    """The per-set half of Table I: how many instances feed the fused value.
+    """The per-set half of Wan2018 Table I: how many instances feed the fused value.
+
+    Table I (its layout is garbled in the text copy; the rows are reconstructed from sec. III-C
+    and the observability remarks) selects the estimator's output (20d) by which sets are lost:
+    I  [V_g, V_z, alpha, V_c] (neither set lost), II [V_g, V_z, V_c] (every AoA instance
+    faulty), III [V_g, V_z, alpha] (every CAS instance faulty), IV [V_g, V_z] (both). So a set
+    keeps feeding its fused value while at least one instance is healthy, whatever the number
+    of faulty ones; only when all are faulty is it dropped and the model estimate alone stands
+    in for it (virtual sensor).
 
     ``label`` is what :class:`~gcs_monitor.fdi.events.SetStatus.configuration` carries:
     ``"fused k/n"`` while at least one instance is healthy, ``"lost: virtual"`` when all are

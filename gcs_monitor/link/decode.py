@@ -28,8 +28,6 @@ from gcs_monitor.link.stats import LinkCounters, LinkStats
 log = logging.getLogger(__name__)
 
 MSG_HEARTBEAT = mavlink.MAVLINK_MSG_ID_HEARTBEAT
-MSG_BAD_DATA = mavlink.MAVLINK_MSG_ID_BAD_DATA
-MSG_UNKNOWN = mavlink.MAVLINK_MSG_ID_UNKNOWN
 MAV1_MAGIC = 0xFE
 MAV2_MAGIC = 0xFD
 MAV2_SYSID_OFFSET = 5

@@ -1,12 +1,11 @@
-"""The one pymavlink import: MAVLink 2, ardupilotmega dialect, chosen before import."""
+"""The one pymavlink import: the MAVLink 2 ``ardupilotmega`` dialect module, imported directly.
+
+Not through ``mavutil``: nothing here reads or sets ``MAVLINK20`` / ``MAVLINK_DIALECT``, so the
+monitor decodes MAVLink 2 (and AOA_SSA, an ardupilotmega message) whatever the environment holds.
+"""
 
 from __future__ import annotations
 
-import os
-
-os.environ["MAVLINK20"] = "1"
-os.environ.setdefault("MAVLINK_DIALECT", "ardupilotmega")
-
-from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 __all__ = ["mavlink"]

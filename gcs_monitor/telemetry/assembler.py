@@ -98,19 +98,16 @@ class FrameAssembler:
     Parameters
     ----------
     config : ``TelemetryConfig`` (``gps_delay_s``, ``stale_after_s``, ``primary_imu``) or None for
-        defaults. For backward compatibility a :class:`LinkStats` in this position is taken as
-        ``stats``.
+        defaults
     stats : the vehicle's link statistics (bad values, reboots, reorders are counted there)
     gps_delay_us, stale_after_s, primary_imu : override the config values
     align_delay_us : R, how long frames are held so all inputs are aligned (0: mode "latest")
     """
 
-    def __init__(self, config: Any = None, *, stats: LinkStats | None = None,
+    def __init__(self, *, config: Any = None, stats: LinkStats | None = None,
                  gps_delay_us: int | None = None, align_delay_us: int | None = None,
                  stale_after_s: float | None = None, primary_imu: int | None = None,
                  max_pending: int = MAX_PENDING) -> None:
-        if isinstance(config, LinkStats):
-            stats, config = config, None
         self.stats = stats if stats is not None else LinkStats(0)
         d_s = getattr(config, "gps_delay_s", DEFAULT_GPS_DELAY_S)
         self.gps_delay_us = int(gps_delay_us if gps_delay_us is not None else round(d_s * 1e6))
@@ -161,7 +158,7 @@ class FrameAssembler:
         """Mode "aligned" with R = D: every input of a frame, GPS included, is at ``t_us``."""
         d_s = getattr(config, "gps_delay_s", DEFAULT_GPS_DELAY_S)
         d_us = int(kw.pop("gps_delay_us", round(d_s * 1e6)))
-        return cls(config, stats=stats, gps_delay_us=d_us, align_delay_us=d_us, **kw)
+        return cls(config=config, stats=stats, gps_delay_us=d_us, align_delay_us=d_us, **kw)
 
     # -- state -------------------------------------------------------------------------------
     def _reset(self) -> None:
@@ -440,9 +437,6 @@ class FrameAssembler:
         return []
 
     # air data and surfaces ----------------------------------------------------------------------
-    def _arrival_us(self) -> int:
-        return self._now_us
-
     def _airspeed(self, m: Any) -> list[Frame]:
         i = m.id
         v = m.airspeed

@@ -135,17 +135,3 @@ def contract_markdown() -> str:
         lines.append(f"| {r.message} | {r.fields} | {r.frame_field} | {r.conversion} | "
                      f"{_fmt_scale(r)} | {r.rate} |")
     return "\n".join(lines)
-
-
-def extract_markdown_table(text: str, header: str = TABLE_HEADER) -> str:
-    """The contract table inside a Markdown document: the header line and following rows."""
-    lines = text.splitlines()
-    first = header.splitlines()[0]
-    try:
-        i = lines.index(first)
-    except ValueError:
-        return ""
-    j = i
-    while j < len(lines) and lines[j].startswith("|"):
-        j += 1
-    return "\n".join(lines[i:j])

@@ -83,7 +83,6 @@ class ManoeuvreScript:
         self.gn = gains
         self.alt0 = alt_m
         self.tas0 = tas_mps
-        self.hdg0 = heading_rad
         self.base = Targets(alt_m, tas_mps, heading_rad)
         k = spec.kind
         a, p = spec.amplitude, spec.period_s

@@ -38,7 +38,7 @@ from __future__ import annotations
 import ast
 import math
 import zlib
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -309,10 +309,3 @@ def additive_value(
         factor = float(s.p().get("si_factor", 1.0))  # type: ignore[arg-type]
         return factor * expr(t_s, tau_s)
     raise ValueError(f"unknown fault kind {k!r}")
-
-
-def faults_by_channel(specs: tuple[FaultSpec, ...]) -> Mapping[str, list[FaultSpec]]:
-    out: dict[str, list[FaultSpec]] = {}
-    for s in specs:
-        out.setdefault(s.channel, []).append(s)
-    return out

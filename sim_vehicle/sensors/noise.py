@@ -7,7 +7,7 @@ Lu2016's rates) are marked *assumed* and chosen as typical of the class of senso
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 from gcs_monitor.core.units import DEG2RAD
 
@@ -105,8 +105,3 @@ ATMACA2025 = SensorSet(
 )
 
 SENSOR_SETS: dict[str, SensorSet] = {s.name: s for s in (LU2016, ATMACA2025)}
-
-
-def with_rates(base: SensorSet, **rates_hz: float) -> SensorSet:
-    """A copy of a set with some rates overridden (``imu_hz=200``...)."""
-    return replace(base, rates=replace(base.rates, **rates_hz))

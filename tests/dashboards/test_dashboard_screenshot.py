@@ -11,7 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gcs_monitor.tools.screenshot import CHROMIUM, screenshot_rrd, write_synthetic_rrd
+from gcs_monitor.tools.screenshot import CHROMIUM, screenshot_rrd
+from tests.helpers.synthetic_rrd import write_synthetic_rrd
 
 DOCS_IMG = Path(__file__).resolve().parents[2] / "docs" / "img" / "dashboard.png"
 # GCS_UPDATE_SCREENSHOT=1 copies the screenshot over the README's; by default the test leaves the

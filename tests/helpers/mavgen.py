@@ -10,23 +10,18 @@ A :class:`MavGen` produces the contract's message mix for one vehicle from smoot
 * SCALED_PRESSURE and SERVO_OUTPUT_RAW at 10 Hz, DEBUG_FLOAT_ARRAY ``SURF`` at 50 Hz,
   HEARTBEAT at 1 Hz.
 
-Corruption helpers (drop, duplicate, reorder, flip bits, truncate) and tlog writing are module
+Corruption helpers (drop, duplicate, reorder, flip bits) and the tlog image are module
 functions. Packets are ``(t_us, bytes)`` pairs in send order.
 """
 
 from __future__ import annotations
 
 import math
-import os
 import struct
 from collections.abc import Iterable, Sequence
-from pathlib import Path
 
 import numpy as np
-
-os.environ.setdefault("MAVLINK20", "1")
-os.environ.setdefault("MAVLINK_DIALECT", "ardupilotmega")
-from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 Packet = tuple[int, bytes]
 TLOG_EPOCH_US = 1_700_000_000_000_000
@@ -228,11 +223,6 @@ def to_tlog(packets: Iterable[Packet], epoch_us: int = TLOG_EPOCH_US) -> bytes:
     return b"".join(struct.pack(">Q", epoch_us + t) + p for t, p in packets)
 
 
-def write_tlog(path: Path, packets: Iterable[Packet]) -> Path:
-    path.write_bytes(to_tlog(packets))
-    return path
-
-
 def drop(packets: Sequence[Packet], frac: float, rng: np.random.Generator) -> list[Packet]:
     keep = rng.random(len(packets)) >= frac
     return [p for p, k in zip(packets, keep, strict=True) if k]
@@ -266,15 +256,3 @@ def flip_bits(data: bytes, n_flips: int, rng: np.random.Generator) -> bytes:
     for pos in rng.integers(0, len(b) * 8, n_flips):
         b[pos // 8] ^= 1 << (pos % 8)
     return bytes(b)
-
-
-def truncate(data: bytes, n_cut: int) -> bytes:
-    """Cut the last ``n_cut`` bytes (a file or stream ending mid-packet)."""
-    return data[: max(0, len(data) - n_cut)]
-
-
-def interleave(a: Sequence[Packet], b: Sequence[Packet]) -> list[Packet]:
-    """Merge two send-ordered streams by time (two senders on one link)."""
-    out = list(a) + list(b)
-    out.sort(key=lambda p: p[0])
-    return out

@@ -3,14 +3,11 @@
 from __future__ import annotations
 
 import math
-import os
 import sys
 from pathlib import Path
 
 import numpy as np
 
-os.environ.setdefault("MAVLINK20", "1")
-os.environ.setdefault("MAVLINK_DIALECT", "ardupilotmega")
 sys.path.insert(0, str(Path(__file__).parent / "sensors"))
 from test_suite import make_state  # noqa: E402
 

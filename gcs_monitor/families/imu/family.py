@@ -114,7 +114,7 @@ class ImuFamily:
                 j.judging = False
             # Filter convergence: fault estimates are not judged during the warm-up after an
             # estimator (re)starts (its start-up transient is up to 10x its converged
-            # fault-free level; docs/results.md, IMU family).
+            # fault-free level; docs/results.md, "Detection and isolation with imu_ts").
             if j.start_us is None:
                 j.start_us = t_us + self._warmup_us
             judged = t_us >= j.start_us

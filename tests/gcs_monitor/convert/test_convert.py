@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import os
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +17,7 @@ from gcs_monitor.convert.formats import (
 )
 from gcs_monitor.convert.writer import convert_file, lu2016_table2_injector
 from gcs_monitor.core.frames import dcm_ned_frd
+from tests.helpers.stock_mavutil import stock_mavutil
 
 REAL = Path(__file__).resolve().parents[4] / "shared" / "data" / "real"
 if not REAL.exists():
@@ -74,18 +74,17 @@ def test_alfa_flu_enu_to_frd_ned():
 
 
 def test_tlog_reads_back_with_injected_faults(tmp_path):
-    os.environ["MAVLINK20"] = "1"
-    from pymavlink import mavutil
-
     out = tmp_path / "z.tlog"
     r = convert_file(ZIP[0], out, inject_imu=lu2016_table2_injector())
     assert out.exists() and not (tmp_path / "z.tlog.tmp").exists()
     f = read_zipline(ZIP[0])
-    log = mavutil.mavlink_connection(str(out))
     k = 0
-    while (m := log.recv_match(type="HIGHRES_IMU")) is not None:
-        assert m.xacc == pytest.approx(f.acc_frd_mps2[0][k, 0] + r.injected_imu[k, 0], abs=1e-4)
-        k += 1
+    with stock_mavutil() as mavutil:
+        log = mavutil.mavlink_connection(str(out))
+        while (m := log.recv_match(type="HIGHRES_IMU")) is not None:
+            assert m.xacc == pytest.approx(f.acc_frd_mps2[0][k, 0] + r.injected_imu[k, 0],
+                                           abs=1e-4)
+            k += 1
     assert k == len(f.t_s)
     assert np.max(r.injected_imu[:, 0]) == 3.0  # Lu2016 Table 2: f_Ax bias 3 m/s^2
 

@@ -75,8 +75,8 @@ def test_lu2016_calm_20s_through_mavlink_all_channels_alarmed(tmp_path: Path) ->
     """20 s of lu2016_calm (faults from 10 s) with the default monitor estimator and thresholds:
     all six channels alarm within 3 s of the fault start (the drift: after crossing the
     threshold), none before it, and the GS-KM ATSEKF reconstruction is within bounds from the
-    Lu2016 notes (docs/papers-notes.md: f_Az 0.41 m/s^2, f_q 0.146 deg/s on the synthetic
-    truth) with margin for the 10-20 s window."""
+    Lu2016 synthetic truth (docs/results.md, "Synthetic truth": f_Az 0.41 m/s^2, f_q 0.146 deg/s)
+    with margin for the 10-20 s window."""
     sc = imu.scenario("lu2016_calm", duration_s=20.0)
     run_cfg = imu.detection_config({})
     run = imu.simulate(sc, imu.default_variant, run_cfg)

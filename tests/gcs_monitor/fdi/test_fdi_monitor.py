@@ -6,7 +6,6 @@ Triplex AoA at 100 Hz, sensor noise SIGMA rad, J_th = 4 SIGMA, faults from t = 2
 from __future__ import annotations
 
 import math
-import time
 
 import numpy as np
 import pytest
@@ -232,31 +231,6 @@ def test_channel_monitor_and_calibrate() -> None:
     assert events[0].magnitude == pytest.approx(1.0, abs=0.1)
     assert 500 * DT_US <= events[0].t_us <= 506 * DT_US
     assert not st.faulty
-
-
-def test_step_cost_n3() -> None:
-    """Budget: < 15 µs per step for n = 3 (replay at >= 100x real time, all sets).
-
-    CPU time (process_time), best of 10 chunks: the test machine is shared, wall time is not
-    this process's cost.  The assertion keeps a 2x margin; the measured figure is printed.
-    """
-    n = 2000
-    y = _scenario(n, {}, seed=11)
-    rows = [y[k] for k in range(n)]
-    valid = np.ones(3, dtype=bool)
-    worst = 0.0
-    for use_ref in (False, True):
-        mon = RedundantSetMonitor("aoa", 3, PARAMS)
-        ref = _reference(n, 12).tolist() if use_ref else [None] * n
-        best = math.inf
-        for _ in range(10):
-            t0 = time.process_time()
-            for k in range(n):
-                mon.step(k * DT_US, rows[k], valid, ref[k])
-            best = min(best, (time.process_time() - t0) / n)
-        print(f"step cost (reference={use_ref}): {1e6 * best:.2f} µs CPU")
-        worst = max(worst, best)
-    assert worst < 30e-6
 
 
 def test_channel_id_hash_is_cached_and_survives_pickling() -> None:

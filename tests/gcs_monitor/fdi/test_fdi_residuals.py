@@ -10,7 +10,7 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from gcs_monitor.fdi.confirmation import Confirmation, ConfirmationParams
-from gcs_monitor.fdi.residuals import ResidualRms, RmsWindowParams, rms_window_batch
+from gcs_monitor.fdi.residuals import ResidualRms, RmsWindowParams
 
 
 def test_eq18_hand_values() -> None:
@@ -22,6 +22,18 @@ def test_eq18_hand_values() -> None:
     # 3.0 leaves the window: sqrt((16+144+0)/3)
     assert w.update(0.0) == pytest.approx(math.sqrt(160.0 / 3.0), rel=1e-15)
     assert w.window() == [16.0, 144.0, 0.0]
+
+
+def rms_window_batch(residual: list[float] | tuple[float, ...], rms_window_n: int) -> list[float]:
+    """Reference O(N * N_eval) implementation of Wan2018 eq. 18 over a whole sequence.
+
+    Same start-up convention as :class:`ResidualRms` (divide by N_eval from the start).
+    """
+    out: list[float] = []
+    for k in range(len(residual)):
+        lo = max(0, k - rms_window_n + 1)
+        out.append(math.sqrt(math.fsum(r * r for r in residual[lo : k + 1]) / rms_window_n))
+    return out
 
 
 @settings(max_examples=50, deadline=None)

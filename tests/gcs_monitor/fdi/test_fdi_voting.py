@@ -1,4 +1,4 @@
-"""Adaptive weighted fusion (Wan2018 eq. 19), Table I, median / majority helpers."""
+"""Adaptive weights (Wan2018 eq. 19), the per-set Table I label, the median, consensus."""
 
 from __future__ import annotations
 
@@ -9,23 +9,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from gcs_monitor.fdi.isolation import consensus_residuals
-from gcs_monitor.fdi.voting import (
-    OutputConfiguration,
-    SetConfiguration,
-    adaptive_weights,
-    majority_vote,
-    median_of,
-    output_configuration,
-    output_vector_names,
-    weighted_fusion,
-)
+from gcs_monitor.fdi.voting import SetConfiguration, adaptive_weights, median_of
 
 
 def test_eq19_hand_values() -> None:
     # J = 1, 2, 4 -> 1/J^2 = 1, 1/4, 1/16; sum 21/16 -> beta = 16/21, 4/21, 1/21
     w = adaptive_weights([1.0, 2.0, 4.0], [True] * 3, threshold=10.0, rms_floor=0.1)
     assert w == pytest.approx([16 / 21, 4 / 21, 1 / 21], rel=1e-15)
-    assert weighted_fusion([21.0, 42.0, 0.0], w) == pytest.approx(16 + 8, rel=1e-15)
 
 
 def test_eq19_excludes_above_threshold_and_declared() -> None:
@@ -40,7 +30,6 @@ def test_eq19_floor_and_fallback() -> None:
     # all momentarily above J_th but none declared: fall back to 1/J^2 over the eligible
     assert adaptive_weights([20.0, 40.0], [True, True], 10.0, 1.0) == pytest.approx([0.8, 0.2])
     assert adaptive_weights([1.0, 1.0], [False, False], 10.0, 1.0) == [0.0, 0.0]
-    assert math.isnan(weighted_fusion([1.0, 2.0], [0.0, 0.0]))
 
 
 @settings(max_examples=100, deadline=None)
@@ -61,23 +50,10 @@ def test_median_matches_sorted(xs: list[float]) -> None:
     assert median_of(xs) == ref
 
 
-def test_majority_vote() -> None:
-    assert majority_vote([1.0, 1.1, 5.0], [True] * 3, 0.5) == [True, True, False]
-    # two faulty on the same side: the good one is voted out (Wan2018 sec. I)
-    assert majority_vote([5.0, 5.1, 1.0], [True] * 3, 0.5) == [True, True, False]
-    assert majority_vote([1.0, 3.0], [True, True], 0.5) == [False, False]
-    assert majority_vote([1.0, 9.0, 1.2], [True, False, True], 0.5) == [True, False, True]
-
-
-def test_table1_configurations() -> None:
-    assert output_configuration(False, False) is OutputConfiguration.I
-    assert output_configuration(True, False) is OutputConfiguration.II
-    assert output_configuration(False, True) is OutputConfiguration.III
-    assert output_configuration(True, True) is OutputConfiguration.IV
-    assert output_vector_names(OutputConfiguration.II) == ("gs_mps", "vz_mps", "cas_mps")
-    assert output_vector_names(OutputConfiguration.IV) == ("gs_mps", "vz_mps")
+def test_table1_set_configuration_labels() -> None:
     assert SetConfiguration(2, 3, False, False).label == "fused 2/3"
     assert SetConfiguration(0, 3, True, True).label == "lost: virtual"
+    assert SetConfiguration(0, 3, True, False).label == "lost: none"
 
 
 def test_consensus_rules() -> None:

@@ -10,10 +10,12 @@ import time
 
 import pytest
 
+import gcs_monitor.link.transports as transports
 from gcs_monitor.link.decode import Decoder
 from gcs_monitor.link.transports import SourceError, TlogSource, open_source
 from gcs_monitor.sinks.tlog_writer import TlogRecorder, split_packets
-from tests.helpers.mavgen import MavGen, to_tlog
+from tests.helpers.clock import FakeClock
+from tests.helpers.mavgen import TLOG_EPOCH_US, MavGen, to_tlog
 
 
 def _free_port(kind: int = socket.SOCK_DGRAM) -> int:
@@ -119,17 +121,28 @@ def test_zenoh_source_receives_raw_frames(packets):
     assert len(msgs) == len(packets)
 
 
-def test_tlog_speed_factor_and_progress(tmp_path, packets):
+def test_tlog_speed_factor_and_progress(tmp_path, packets, monkeypatch):
+    # Fake clock: each chunk is released when the clock reaches its recorded time at 2x.
+    # (bench_pacing.py measures how closely the real clock follows.)
+    clock = FakeClock()
+    monkeypatch.setattr(transports, "time", clock)
     path = tmp_path / "run.tlog"
     path.write_bytes(to_tlog(packets))  # 0.2 s of vehicle time
     seen: list[tuple[int, int]] = []
     src = TlogSource(path, speed=2.0, chunk_bytes=512, on_progress=lambda a, b: seen.append((a, b)))
-    t0 = time.monotonic()
-    n = sum(len(Decoder().feed(c, w)) for c, w in src)
-    elapsed = time.monotonic() - t0
-    assert n == len(packets)
+    t0_s = clock.now_s
+    t_first_s = (TLOG_EPOCH_US + packets[0][0]) * 1e-6
+    n = 0
+    released = []
+    for c, t_rec in src:
+        n += len(Decoder().feed(c, t_rec))
+        released.append((t_rec, clock.now_s))
+        clock.advance(0.001)  # the consumer's work does not shift the schedule
+    assert n == len(packets) and len(released) > 5
+    for t_rec, at_s in released:
+        assert at_s == pytest.approx(t0_s + (t_rec - t_first_s) / 2.0, abs=1e-6)  # s: µs stamps
     span_s = (packets[-1][0] - packets[0][0]) * 1e-6
-    assert elapsed >= span_s / 2.0 - 0.005  # paced to the recorded timestamps at 2x
+    assert released[-1][1] - t0_s == pytest.approx(span_s / 2.0, abs=1e-6)
     done = [a for a, _ in seen]
     assert done == sorted(done) and seen[-1] == (path.stat().st_size, path.stat().st_size)
 

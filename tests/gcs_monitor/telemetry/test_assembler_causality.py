@@ -30,7 +30,7 @@ class _Other(MavGen):
 
 def _emitted_before_cut(packets, cut: int, align_us: int) -> list:
     d = Decoder()
-    a = FrameAssembler(d.vehicle_stats(1), gps_delay_us=D_US, align_delay_us=align_us)
+    a = FrameAssembler(stats=d.vehicle_stats(1), gps_delay_us=D_US, align_delay_us=align_us)
     out = []
     for _, p in packets[:cut]:
         for m in d.feed(p, 0.0):

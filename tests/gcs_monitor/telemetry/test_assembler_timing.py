@@ -25,7 +25,7 @@ QUANT_MPS = 0.005 + 1e-9  # cm/s rounding of each GPS sample; interpolation cann
 def _run(packets, asm: FrameAssembler | None = None, *, on_frame=None) -> list[Frame]:
     """Decode and assemble; ``on_frame(frame, newest_imu_t_us)`` sees each frame as it leaves."""
     d = Decoder()
-    asm = asm or FrameAssembler(d.vehicle_stats(1))
+    asm = asm or FrameAssembler(stats=d.vehicle_stats(1))
     frames: list[Frame] = []
     newest = 0
     for _, p in packets:
@@ -184,7 +184,7 @@ def test_scaled_imu_fallback_units():
 def test_non_finite_and_impossible_values_are_counted_and_dropped():
     g = MavGen(n_imu=1)
     d = Decoder()
-    asm = FrameAssembler(d.vehicle_stats(1))
+    asm = FrameAssembler(stats=d.vehicle_stats(1))
     t = g.t0_us
     bad = [g.highres_imu(t, 0, (math.nan, 0.0, -9.8), (0.0, 0.0, 0.0)),
            g.highres_imu(t, 0, (0.0, 0.0, -9.8), (math.inf, 0.0, 0.0)),
@@ -208,7 +208,7 @@ def test_time_going_backwards_is_a_reboot():
     first = g.packets(1.0)
     second = g.packets(1.0, start_us=200_000)  # vehicle clock restarted
     d = Decoder()
-    asm = FrameAssembler(d.vehicle_stats(1))
+    asm = FrameAssembler(stats=d.vehicle_stats(1))
     frames = _run(first + second, asm)
     st = d.stats[1]
     assert st.reboots == 1 and asm.reboot_pending
@@ -229,7 +229,7 @@ def test_small_backward_steps_are_dropped_not_reboots():
     t_back = pk[-1][0] - 50_000
     late = g.highres_imu(t_back, 0, (0.0, 0.0, -9.8), (0.0, 0.0, 0.0))
     d = Decoder()
-    asm = FrameAssembler(d.vehicle_stats(1))
+    asm = FrameAssembler(stats=d.vehicle_stats(1))
     n = len(_run(pk, asm))
     for m in d.feed(late, 0.0):
         assert asm.push(m) == []

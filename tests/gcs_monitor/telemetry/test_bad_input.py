@@ -27,7 +27,7 @@ def _run(data_chunks, *, align_delay_us: int = 0) -> tuple[Decoder, dict[int, Fr
             s = m._header.srcSystem
             a = asm.get(s)
             if a is None:
-                a = asm[s] = FrameAssembler(d.vehicle_stats(s), align_delay_us=align_delay_us)
+                a = asm[s] = FrameAssembler(stats=d.vehicle_stats(s), align_delay_us=align_delay_us)
             frames.extend(a.push(m))
 
     for data in data_chunks:
@@ -142,7 +142,7 @@ def test_gps_without_3d_fix_gives_no_velocity():
     pk = g.packets(1.0)
     data = mavgen.join(pk)
     d = Decoder()
-    a = FrameAssembler(d.vehicle_stats(1))
+    a = FrameAssembler(stats=d.vehicle_stats(1))
     frames = []
     for m in d.feed(data, 0.0):
         if m._type == "GPS_RAW_INT":
@@ -159,11 +159,11 @@ def test_raw_imu_only_used_for_ardupilot():
                                           0, 0, 0, 0, 0).pack(mav) for k in range(5)]
     other = mavlink.MAVLink_heartbeat_message(2, mavlink.MAV_AUTOPILOT_PX4, 0, 0, 4, 3).pack(mav)
     d = Decoder()
-    a = FrameAssembler(d.vehicle_stats(1))
+    a = FrameAssembler(stats=d.vehicle_stats(1))
     frames = a.push_many(d.feed(bytes(other) + b"".join(raw[:2]), 0.0))
     assert frames == []  # PX4: RAW_IMU is raw counts
     d2 = Decoder()
-    a2 = FrameAssembler(d2.vehicle_stats(1))
+    a2 = FrameAssembler(stats=d2.vehicle_stats(1))
     frames = a2.push_many(d2.feed(g.heartbeat() + b"".join(raw), 0.0))
     assert len(frames) == 5
     np.testing.assert_allclose(frames[0].imu[0].acc_frd_mps2, [0, 0, -9.80665], atol=1e-12)
@@ -177,7 +177,7 @@ def test_input_availability_lists_what_is_there():
     msgs = [m for m in d.feed(mavgen.join(pk), 0.0)
             if m._type not in ("AIRSPEED", "DEBUG_FLOAT_ARRAY")
             and not (m._type == "NAMED_VALUE_FLOAT")]
-    a = FrameAssembler(d.vehicle_stats(1))
+    a = FrameAssembler(stats=d.vehicle_stats(1))
     frames = a.push_many(msgs)
     for av in (input_availability(a), input_availability(frames)):
         assert av["imu_ids"] == [0, 1] and av["attitude"] and av["gps_velocity"]

@@ -4,9 +4,23 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from gcs_monitor.telemetry.contract import ROWS, contract_markdown, extract_markdown_table
+from gcs_monitor.telemetry.contract import ROWS, TABLE_HEADER, contract_markdown
 
 DOC = Path(__file__).resolve().parents[3] / "docs" / "telemetry.md"
+
+
+def extract_markdown_table(text: str, header: str = TABLE_HEADER) -> str:
+    """The contract table inside a Markdown document: the header line and following rows."""
+    lines = text.splitlines()
+    first = header.splitlines()[0]
+    try:
+        i = lines.index(first)
+    except ValueError:
+        return ""
+    j = i
+    while j < len(lines) and lines[j].startswith("|"):
+        j += 1
+    return "\n".join(lines[i:j])
 
 
 def test_every_contract_row_appears_in_the_doc():

@@ -28,7 +28,7 @@ def replay():
             s = m._header.srcSystem
             a = asm.get(s)
             if a is None:
-                a = asm[s] = FrameAssembler(d.vehicle_stats(s))
+                a = asm[s] = FrameAssembler(stats=d.vehicle_stats(s))
             frames += a.push(m)
     return d, asm, frames, progress, src
 

@@ -17,7 +17,7 @@ from tests.helpers.imu_synth_body import (
     turn_truth_at,
 )
 
-# Measured on seeds 1 and 2 (docs/papers-notes.md, Atmaca2025): accelerometer RMSE 0.33-0.39 m/s^2
+# Measured on seeds 1 and 2 (docs/results.md, "Synthetic truth"): accelerometer RMSE 0.33-0.39 m/s^2
 # (noise floor of the HOSM derivative of the GPS-driven velocity drift ~0.30-0.38 m/s^2 RMS),
 # gyro RMSE p 2.4-3.2e-3, q 1.6-1.7e-3, r 0.8-0.9e-3 rad/s. Bounds leave ~25 % margin.
 ACC_RMSE_MPS2 = 0.5

@@ -16,7 +16,7 @@ from tests.helpers.imu_synth import FAULT_END_S, FAULT_START_S, SynthRun, make_r
 D2R = math.pi / 180.0
 # Lu2016 Table 2 faults, window 10 s < t < 30 s. Bounds (per-channel RMSE of f_hat - f) over
 # 10.5 s < t < 30 s (the first 0.5 s is the response to the 3 m/s^2 and 3 deg/s steps).
-# Measured with seeds 1 and 2 (docs/papers-notes.md, Lu2016): acc x,y,z = 0.016, 0.022, 0.405
+# Measured with seeds 1 and 2 (docs/results.md, "Synthetic truth"): acc x,y,z = 0.016, 0.022, 0.405
 # m/s^2; gyro p,q,r = 0.012, 0.146, 0.014 deg/s. The oscillatory faults (f_Az 4 sin(0.5 pi t),
 # f_q 1 deg/s sine) dominate: a ~0.09 s estimation lag on a 0.25 Hz sine.
 RMSE_BOUND = np.array([0.08, 0.06, 0.6, 0.04 * D2R, 0.25 * D2R, 0.05 * D2R])
