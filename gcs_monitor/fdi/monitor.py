@@ -520,6 +520,14 @@ class ChannelMonitor:
         self._faulty = False
         self._since_class = 0
 
+    def retire(self, t_us: int, why: str) -> list[AlarmEvent]:
+        """The channel is no longer monitored (its sensor stopped being the one judged): an
+        active alarm is cleared with ``why``; nothing otherwise."""
+        if not self._alarm.active:
+            return []
+        return self._alarm.step(t_us, False, rms=self._J, threshold=self.p.threshold,
+                                message=why)
+
     def step(self, t_us: int, value: float, valid: bool) -> tuple[ChannelStatus, list[AlarmEvent]]:
         """Process one sample; an invalid or non-finite value holds J and the decision."""
         events = self.update(t_us, value, valid)

@@ -606,6 +606,7 @@ class FrameAssembler:
             surf_cmd_rad=surf[0] if surf else None, surf_pos_rad=surf[1] if surf else None,
             rod_pos_m=surf[2] if surf else None, surf_age_s=surf_age,
             reset=self._next_reset_flag, gps_fix=self._gps_fix,
+            primary=self._primary if self._primary is not None else 0,
         )
         self._air_new = False
         self._next_reset_flag = False

@@ -78,10 +78,10 @@ class Frame:
     output_delay_us: int = 0  # how far behind the newest received vehicle time this frame is
     gps_fix: int = -1  # GPS_RAW_INT fix_type (-1: no GPS_RAW_INT seen); velocity needs >= 3
     reset: bool = False  # first frame after an assembler reset (autopilot reboot)
+    # the IMU instance whose sample this frame is (it switches when the primary goes silent)
+    primary: int = 0
 
     @property
     def primary_imu(self) -> ImuSample | None:
-        for s in self.imu:
-            if s is not None:
-                return s
-        return None
+        """The sample of the primary IMU (the one at ``t_us``)."""
+        return self.imu[self.primary] if self.primary < len(self.imu) else None

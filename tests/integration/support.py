@@ -67,11 +67,26 @@ def run_monitor(data: bytes, *, chunk: int = 4096, **kw: Any) -> MonitorRun:
 def repack(packet: bytes, **fields: Any) -> bytes:
     """The same MAVLink 2 packet (sender, sequence number) with some fields replaced."""
     msg = mavlink.MAVLink(None).decode(bytearray(packet))
+    seq = fields.pop("_seq", packet[4])
     for k, v in fields.items():
         setattr(msg, k, v)
     mav = mavlink.MAVLink(None, srcSystem=packet[5], srcComponent=packet[6])
-    mav.seq = packet[4]
+    mav.seq = seq
     return bytes(msg.pack(mav, force_mavlink1=False))
+
+
+def resequence(packets: list[bytes]) -> list[bytes]:
+    """The same packets with consecutive sequence numbers per sender, as an autopilot that
+    simply stopped sending one stream would number them (dropping packets alone would look
+    like link loss)."""
+    seq: dict[tuple[int, int], int] = {}
+    out = []
+    for p in packets:
+        key = (p[5], p[6])
+        n = seq.get(key, p[4])
+        seq[key] = (n + 1) % 256
+        out.append(p if p[4] == n else repack(p, _seq=n))
+    return out
 
 
 def msg_name(packet: bytes) -> str:

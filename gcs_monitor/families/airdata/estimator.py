@@ -312,8 +312,8 @@ class AirDataEstimator:
         None on frames without new air data."""
         if self._prepared is not None and self._prepared.frame is frame:
             return self._prepared
-        imu = frame.imu[0] if frame.imu else None
-        if imu is not None:
+        imu = frame.primary_imu
+        if imu is not None and imu.t_us == frame.t_us:
             # Anti-aliasing: Theta's A_x, A_z, q are averaged over the IMU samples of the interval.
             self._acc_sum += (imu.acc_frd_mps2[0], imu.acc_frd_mps2[2], imu.omega_frd_radps[1])
             self._acc_n += 1

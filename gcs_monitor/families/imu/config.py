@@ -79,5 +79,7 @@ class ImuFamilyConfig:
     enabled: bool = param(True, "monitor the IMU family")
     warmup_s: float = param(5.0, "fault estimates are judged this long after an estimator "
                             "becomes available again without a re-initialisation notice")
+    no_data_window_s: float = param(0.5, "an IMU instance silent this long while another "
+                                    "delivers raises no_data; 0 turns the check off")
     ts: ImuTsSection = section(ImuTsSection, "Lu2016 ATSEKF on the GS-KM")
     hosm: ImuHosmSection = section(ImuHosmSection, "Atmaca2025 OTSEKF + HOSM")

@@ -23,6 +23,7 @@ from gcs_monitor.families.base import FamilyContext, FaultEstimator, Verdict
 from gcs_monitor.families.imu.config import ImuFamilyConfig, ImuFdiSets
 from gcs_monitor.families.imu.imu_hosm import ImuHosmEstimator
 from gcs_monitor.families.imu.imu_ts import ImuTwoStageEstimator
+from gcs_monitor.fdi.alarms import AlarmStateMachine
 from gcs_monitor.fdi.config import channel_params
 from gcs_monitor.fdi.events import AlarmEvent, AlarmKind, AlarmState, ChannelStatus, FaultType
 from gcs_monitor.fdi.monitor import ChannelBank, ChannelMonitor
@@ -73,6 +74,10 @@ class ImuFamily:
         self._period = SamplePeriod()
         self._estimates: list[Estimate] = []
         self._inputs = False  # attitude and GPS velocity have been in the telemetry
+        # no-data check of every IMU instance: last sample time, alarm
+        self._no_data_us = round(cfg.no_data_window_s * US_PER_S)
+        self._last_sample: dict[int, int] = {}
+        self._silent: dict[int, AlarmStateMachine] = {}
 
     @property
     def estimators(self) -> list[FaultEstimator]:
@@ -92,6 +97,8 @@ class ImuFamily:
         verdict = Verdict(FamilyStatus(self.name, t_us, False, reason="no estimator",
                                        inputs=inputs))
         slow = self._too_slow()
+        if self._no_data_us:
+            verdict.events += self._instances(frame)
         statuses = verdict.channels if self.ctx.statuses else None
         reasons: list[str] = []
         judged_any = False
@@ -134,6 +141,35 @@ class ImuFamily:
                                           inputs=inputs)
         return verdict
 
+    def _instances(self, frame: Frame) -> list[AlarmEvent]:
+        """No-data check of every IMU instance that has delivered: silent for
+        ``no_data_window_s`` while the primary delivers raises ``no_data`` on
+        ``ChannelId("imu", i)`` with the remaining redundancy; it clears when it delivers."""
+        t = frame.t_us
+        seen = self._last_sample
+        for i, smp in enumerate(frame.imu):
+            if smp is not None:
+                seen[i] = smp.t_us
+        if len(seen) < 2:
+            return []
+        silent = {i for i, ts in seen.items() if t - ts > self._no_data_us}
+        events: list[AlarmEvent] = []
+        for i in sorted(seen):
+            sm = self._silent.get(i)
+            if sm is None:
+                if i not in silent:
+                    continue
+                sm = self._silent[i] = AlarmStateMachine(
+                    ChannelId("imu", i), AlarmKind.SENSOR_FAULT, "imu", params=self.ctx.alarm,
+                    vehicle=self.ctx.vehicle)
+            if (i in silent) != sm.active:
+                n, left = len(seen), len(seen) - len(silent)
+                msg = (f"IMU {i} silent for {(t - seen[i]) / US_PER_S:.1f} s: {left} of {n} "
+                       f"IMUs deliver" if i in silent else f"IMU {i} delivers again: {left} of "
+                       f"{n} IMUs deliver")
+                events += sm.step(t, i in silent, fault_type=FaultType.NO_DATA, message=msg)
+        return events
+
     def _too_slow(self) -> str:
         """Why the IMU rate is outside the family's range (empty when it is inside or not
         measured yet)."""
@@ -149,7 +185,11 @@ class ImuFamily:
                         verdict: Verdict, statuses: list[ChannelStatus] | None) -> None:
         faults = e.faults
         chans = tuple(faults)
-        if j.channels != chans:
+        if j.channels != chans:  # another IMU is monitored: its channels start afresh
+            why = (f"not judged any more: {e.name} now monitors IMU {chans[0].instance}"
+                   if chans else "not judged any more")
+            for mon in j.monitors:
+                verdict.events += mon.retire(t_us, why)
             j.channels, j.monitors, j.bank = chans, [], None
         if not j.monitors:
             if not judged:  # windows are sized when judging starts; until then J = 0

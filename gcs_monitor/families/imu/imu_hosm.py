@@ -198,6 +198,8 @@ class ImuHosmEstimator:
             raise ValueError(
                 f"propagate must be 'corrected' or 'paper', got {self.cfg.propagate!r}"
             )
+        self._instance: int | None = None  # the IMU instance monitored (the primary)
+        self._channels = FAULT_CHANNELS
         self.reset()
 
     def reset(self) -> None:
@@ -265,9 +267,15 @@ class ImuHosmEstimator:
         return OtsekfPrediction(x_bar_prop=x_bar_prop, Phi=Phi, B=B, Qx=Qx, Qxmu=Qxmu, Qmu=Qmu)
 
     def _frame_inputs(self, frame: Frame) -> tuple[_Step | None, str]:
-        imu = frame.imu[0] if frame.imu else None
-        if imu is None:
-            return None, "imu 0 missing"
+        imu = frame.primary_imu
+        if imu is None or imu.t_us != frame.t_us:
+            return None, f"imu{frame.primary} missing"
+        if frame.primary != self._instance:  # the primary IMU changed: a clean restart
+            if self._instance is not None:
+                self.reset()
+            self._instance = frame.primary
+            self._channels = tuple(ChannelId(c.kind, frame.primary, c.axis)
+                                   for c in FAULT_CHANNELS)
         if frame.euler_rad is None or not _all_finite(frame.euler_rad):
             return None, "attitude missing"
         if frame.att_age_s > self.cfg.max_att_age_s:
@@ -368,9 +376,9 @@ class ImuHosmEstimator:
             name=self.name,
             t_us=t_us,
             states=states,
-            faults=dict(zip(FAULT_CHANNELS, fh.tolist(), strict=True)),
+            faults=dict(zip(self._channels, fh.tolist(), strict=True)),
             residuals=dict(zip(RESIDUAL_CHANNELS, np.asarray(nu).tolist(), strict=True)),
-            virtual=dict(zip(FAULT_CHANNELS, virt.tolist(), strict=True)),
+            virtual=dict(zip(self._channels, virt.tolist(), strict=True)),
             numerics_ok=ok,
         )
 

@@ -42,10 +42,18 @@ from gcs_monitor.telemetry.period import SamplePeriod
 log = logging.getLogger(__name__)
 
 _DEG = math.pi / 180.0
+US_PER_S = 1_000_000
 FAULT_CHANNELS = (
     ChannelId("acc", 0, "x"), ChannelId("acc", 0, "y"), ChannelId("acc", 0, "z"),
     ChannelId("gyro", 0, "p"), ChannelId("gyro", 0, "q"), ChannelId("gyro", 0, "r"),
 )  # fmt: skip
+
+
+
+def fault_channels(instance: int) -> tuple[ChannelId, ...]:
+    """The six fault channels of IMU ``instance`` (accelerometer x, y, z; gyro p, q, r)."""
+    return tuple(ChannelId(c.kind, instance, c.axis) for c in FAULT_CHANNELS)
+
 
 _EULER_CHANNELS = (
     ChannelId("euler", 0, "phi"), ChannelId("euler", 0, "theta"), ChannelId("euler", 0, "psi"),
@@ -103,7 +111,10 @@ class ImuTsConfig:
                        "as = AS-KM (eqs. 15-20, air data)", choices=("gs", "as"))
     adaptive: bool = param(True, "true = ATSEKF (covariance matching, eqs. 53-58); false = "
                            "IOTSEKF with a fixed Q^f")
-    imu_instance: int = param(0, "which IMU instance (HIGHRES_IMU id) to monitor")
+    follow_primary: bool = param(True, "monitor the primary IMU, restarting on the new one when "
+                                 "the primary switches (false: always imu_instance)")
+    imu_instance: int = param(0, "the IMU instance (HIGHRES_IMU id) monitored when "
+                              "follow_primary is false")
     noise: Lu2016Table1 = section(Lu2016Table1, "sensor noise (Lu2016 Table 1)")
     prior: FaultPrior = section(FaultPrior, "fault prior and initial fault random walk")
     filter: TwoStageConfig = section(TwoStageConfig, "two-stage filter algorithm settings "
@@ -176,6 +187,9 @@ class ImuTwoStageEstimator:
         self._r_prev = [0.0] * 6  # previous measured minus estimated output (gates)
         self._t_prev_us = 0
         self._period = SamplePeriod()  # of its usable samples: gap limit, re-anchoring
+        self._instance: int | None = None  # the IMU instance monitored
+        self._restart_why = ""
+        self._channels = FAULT_CHANNELS
         self._t_start_us = 0  # time of the last full (re)start
         # Compiled hot path (GS-KM, numba): the model kernels write F, G and the propagated
         # x_bar into these work arrays and PackedTwoStage runs the filter step in one call; the
@@ -202,9 +216,19 @@ class ImuTwoStageEstimator:
 
     def step(self, frame: Frame) -> Estimate:
         cfg = self.cfg
-        imu = frame.imu[cfg.imu_instance] if cfg.imu_instance < len(frame.imu) else None
-        if imu is None:
-            return Estimate.unavailable(self.name, frame.t_us, f"imu{cfg.imu_instance} missing")
+        inst = frame.primary if cfg.follow_primary else cfg.imu_instance
+        imu = frame.imu[inst] if inst < len(frame.imu) else None
+        if imu is None or frame.t_us - imu.t_us > cfg.max_dt_s * US_PER_S:
+            return Estimate.unavailable(self.name, frame.t_us, f"imu{inst} missing or stale")
+        switched = inst != self._instance
+        if switched:
+            if self._instance is not None:  # the monitored IMU changed: a clean restart
+                log.info("imu_ts: IMU %d -> %d at t_us=%d, restart", self._instance, inst,
+                         frame.t_us)
+                self.reset()
+                self._restart_why = f"primary IMU switched from {self._instance} to {inst}"
+            self._instance = inst
+            self._channels = fault_channels(inst)
         if frame.euler_rad is None or frame.att_age_s > cfg.max_att_age_s:
             return Estimate.unavailable(self.name, frame.t_us, "attitude missing or stale")
         if not (math.isfinite(frame.lat_rad) and math.isfinite(frame.alt_msl_m)):
@@ -228,7 +252,8 @@ class ImuTwoStageEstimator:
                 warm = cfg.reanchor_warmup_s
             else:
                 self._state = self._init_state(y)
-                why, warm = "start", cfg.start_warmup_s
+                why, warm = self._restart_why or "start", cfg.start_warmup_s
+                self._restart_why = ""
                 self._t_start_us = frame.t_us
             self._u_prev, self._u_prev2, self._t_prev_us = u_m, None, frame.t_us
             self._u_prev_l = u_m.tolist()
@@ -435,8 +460,8 @@ class ImuTwoStageEstimator:
             name=self.name,
             t_us=t_us,
             states=states,
-            faults=dict(zip(FAULT_CHANNELS, f, strict=True)),
+            faults=dict(zip(self._channels, f, strict=True)),
             residuals=dict(zip(res_names, nul, strict=True)),
-            virtual=dict(zip(FAULT_CHANNELS, u_hat, strict=True)),
+            virtual=dict(zip(self._channels, u_hat, strict=True)),
             numerics_ok=ok,
         )
