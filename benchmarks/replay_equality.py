@@ -38,7 +38,7 @@ def _config(name: str) -> MonitorConfig:
         return cfg
     imu = cfg.family("imu")
     on = name == "imu2"
-    imu = dataclasses.replace(imu, ts=dataclasses.replace(imu.ts, enabled=on),
+    imu = dataclasses.replace(imu, enabled=on, ts=dataclasses.replace(imu.ts, enabled=on),
                               hosm=dataclasses.replace(imu.hosm, enabled=on))
     return cfg.with_family("imu", imu).with_family("airdata", estimator="none")
 

@@ -35,9 +35,10 @@ class ConfigError(ValueError):
 class TelemetryConfig:
     """How Frames are assembled from the telemetry."""
 
-    gps_delay_s: float = param(0.1, "GPS velocity interpolation delay D: frames are held this "
-                               "long so every input is aligned to the IMU time (one GPS period "
-                               "at 10 Hz; Lu2016 sec. 5)")
+    gps_delay_s: float = param(0.1, "least GPS velocity interpolation delay D: frames are held "
+                               "this long so every input is aligned to the IMU time (one GPS "
+                               "period at 10 Hz; Lu2016 sec. 5); it grows to the measured GPS "
+                               "period of a slower GPS")
     stale_after_s: float = param(0.5, "an input older than this is invalid", positive=True)
     primary_imu: int = param(0, "preferred primary IMU instance (HIGHRES_IMU id)")
 

@@ -8,7 +8,9 @@ Timing conventions (all vehicle time, integer µs, from ``time_usec``/``time_boo
   counts the switch. Without HIGHRES_IMU (real ArduPilot logs) SCALED_IMU/SCALED_IMU2/
   SCALED_IMU3 are instances 0/1/2, and RAW_IMU is instance 0 when the HEARTBEAT autopilot is
   ArduPilot (ArduPilot fills RAW_IMU with the same mG / mrad/s values); both are FRD already.
-* **GPS velocity delay D** (``config.gps_delay_s``, default one GPS period at 10 Hz). The GPS
+* **GPS velocity delay D** (``config.gps_delay_s``, default one GPS period at 10 Hz; in mode
+  "aligned" with R = D it is a minimum, and both grow to the measured GPS period when the GPS is
+  slower, so 1-10 Hz GPS all get a bracketing pair). The GPS
   velocity is linearly interpolated between the two GPS samples that bracket the query instant
   (Lu2016 sec. 5: 1 Hz interpolated to 100 Hz). Live data has no future sample, so the query
   instant lags the newest data by D: with D >= one GPS period a bracketing pair has normally
@@ -121,6 +123,10 @@ class FrameAssembler:
         if self.gps_delay_us < 0 or self.align_delay_us < 0:
             raise ValueError("gps_delay_us and align_delay_us must be >= 0")
         self.query_lag_us = max(0, self.gps_delay_us - self.align_delay_us)
+        # the configured delays are minimums: with a GPS slower than 1 / D the aligned hold
+        # grows to the measured GPS period, so a bracketing pair still arrives in time
+        self._min_delay_us = self.gps_delay_us
+        self._adapt_delay = 0 < self.align_delay_us == self.gps_delay_us
         self.max_pending = max_pending
         self._dispatch = {
             _HIGHRES: self._highres_imu,
@@ -178,6 +184,7 @@ class FrameAssembler:
         self._gps: collections.deque[GpsSample] = collections.deque(maxlen=GPS_RING)
         self._gps_fix = -1
         self._gps_base_t = NEVER_US
+        self._gps_period = SamplePeriod()  # measured GPS period: the aligned hold follows it
         # AoA vanes 0..2 then CAS 0..2 in one list each (one array per frame, four views)
         self._air_v = [math.nan] * (2 * N_AIR)
         self._air_marked_us = NEVER_US  # newest air sample instant already marked air_new
@@ -434,6 +441,11 @@ class FrameAssembler:
         if not ring:
             self.seen.add("GLOBAL_POSITION_INT")
         ring.append(gps_sample(t_us, vn, ve, vd, lat, lon, alt))
+        self._gps_period.add(t_us)
+        if self._adapt_delay and self._gps_period.known:
+            d_us = max(self._min_delay_us, round(self._gps_period.seconds() * US_PER_S))
+            if d_us != self.gps_delay_us:
+                self.gps_delay_us = self.align_delay_us = d_us
         return []
 
     # air data and surfaces ----------------------------------------------------------------------

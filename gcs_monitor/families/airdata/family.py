@@ -100,7 +100,7 @@ class AirDataFamily:
         if rate < RATE_HZ[0]:
             return Verdict(FamilyStatus(
                 self.name, t_us, False,
-                reason=f"air data at {rate:.3g} Hz, below the {RATE_HZ[0]:g} Hz the air-data "
+                reason=f"air data at {rate:.0f} Hz, below the {RATE_HZ[0]:g} Hz the air-data "
                        "family needs"))
         verdict = Verdict(FamilyStatus(self.name, t_us, True))
         # Python floats and lists: numpy per-call overhead dominates for three instances

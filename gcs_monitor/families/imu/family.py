@@ -93,8 +93,8 @@ class ImuFamily:
         t_us = frame.t_us
         if not self._inputs:
             self._inputs = frame.euler_rad is not None and frame.gps_vel_ned_mps is not None
-        inputs = self._inputs
-        verdict = Verdict(FamilyStatus(self.name, t_us, False, reason="no estimator",
+        inputs = self._inputs and bool(self._est)  # no estimator enabled: nothing to judge
+        verdict = Verdict(FamilyStatus(self.name, t_us, False, reason="no estimator enabled",
                                        inputs=inputs))
         slow = self._too_slow()
         if self._no_data_us:
@@ -178,7 +178,7 @@ class ImuFamily:
             return ""
         rate = 1.0 / period
         if rate < RATE_HZ[0]:
-            return f"IMU at {rate:.3g} Hz, below the {RATE_HZ[0]:g} Hz the IMU family needs"
+            return f"IMU at {rate:.0f} Hz, below the {RATE_HZ[0]:g} Hz the IMU family needs"
         return ""
 
     def _judge_channels(self, t_us: int, j: _Judged, e: Estimate, judged: bool,
