@@ -51,10 +51,16 @@ class MheMeasurementFusion:
     def __init__(self, n: int, threshold: float, n_eval: int, floor_ratio: float,
                  equal_pair: bool = False) -> None:
         self.threshold = threshold
+        self.floor_ratio = floor_ratio
         self.floor = floor_ratio * threshold
         self.equal_pair = equal_pair
         self._rms = [ResidualRms(RmsWindowParams(rms_window_n=n_eval)) for _ in range(n)]
         self._j = [0.0] * n
+
+    def set_threshold(self, threshold: float) -> None:
+        """A new J_th (scheduled on the estimated turbulence); the floor follows it."""
+        self.threshold = threshold
+        self.floor = self.floor_ratio * threshold
 
     def step(self, measured: list[float], usable: list[bool], status: SetStatus
              ) -> tuple[float | None, tuple[float, ...]]:

@@ -17,6 +17,7 @@ runs only when an alarm is raised and every ``reclassify_every_n`` samples while
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -304,6 +305,18 @@ class RedundantSetMonitor:
     @property
     def faulty(self) -> tuple[bool, ...]:
         return tuple(self._faulty)
+
+    @property
+    def suspected(self) -> bool:
+        """Some healthy, usable instance has its residual RMS above J_th (not yet confirmed)."""
+        th = self.p.threshold
+        return any(u and not f and j > th
+                   for u, f, j in zip(self._usable, self._faulty, self._J, strict=True))
+
+    def set_threshold(self, threshold: float) -> None:
+        """A new J_th from now on (scheduled on the estimated turbulence)."""
+        if threshold != self.p.threshold:
+            self.p = dataclasses.replace(self.p, threshold=threshold)
 
     def step(
         self,

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from gcs_monitor.core.params import DEG, KTS, param, section
 from gcs_monitor.core.units import DEG2RAD, KT2MPS
 from gcs_monitor.families.airdata.estimator import VARIANTS, AirDataEstimatorConfig
+from gcs_monitor.families.airdata.weather import WeatherConfig
 from gcs_monitor.fdi.config import RedundantSetConfig
 from gcs_monitor.models.airdata import WindEnvelope
 
@@ -52,7 +53,10 @@ class AirDataFamilyConfig:
                            "consensus)", choices=ESTIMATORS)
     weather: WindEnvelope = section(WindEnvelope, "declared weather of the flight (a forecast): "
                                     "the CMHE's wind bounds (Wan2018 eq. 21b) and the scheduled "
-                                    "thresholds follow it")
+                                    "thresholds follow it; with [airdata.weather_estimate] on, it "
+                                    "is the prior until the estimate has converged")
+    weather_estimate: WeatherConfig = section(WeatherConfig, "the weather estimated online from "
+                                              "GPS velocity, attitude and the fused air data")
     filter: AirDataEstimatorConfig = section(
         lambda: AirDataEstimatorConfig(lateral_terms=True),
         "tuning of the Wan2018 estimator (bank and sideslip in eqs. 12-15 on by default: a "

@@ -152,6 +152,7 @@ class AirDataEstimator:
         self.ip = IpSettings(
             kappa_init=c.kappa_init, n_s_max=c.n_s_max, constrained=(variant == "cmhe")
         )
+        self.envelope = self.cfg.envelope
         self.bounds = MheBounds.unbounded(N_X, N_U)
         self.set_wind_bounds(c.wind_x_max_mps, c.wind_z_max_mps, c.wind_rate_max_mps2)
         self.reset()
@@ -178,12 +179,17 @@ class AirDataEstimator:
 
     def _schedule_bounds(self, theta_p: Vec, dt_s: float, roll_rad: float) -> None:
         """Bounds of the current flight condition from the declared envelope (if any)."""
-        env = self.cfg.envelope
+        env = self.envelope
         if env is None:
             return
         b = envelope_bounds(env, float(theta_p[0]), dt_s, roll_rad, self.model.params.g_mps2)
         self.set_wind_bounds(b.wind_x_max_mps, b.wind_z_max_mps, b.rate_x_max_mps2,
                              wind_rate_z_max_mps2=b.rate_z_max_mps2)
+
+    def set_envelope(self, envelope: WindEnvelope | None) -> None:
+        """The weather whose bounds (eq. 21b) hold from the next sample on (an estimate of the
+        flight's weather replaces the declared one); None keeps the fixed bounds."""
+        self.envelope = envelope
 
     def set_fused_measurements(self, aoa_rad: float | None, cas_mps: float | None) -> None:
         """Fused AoA / CAS of Wan2018 eq. 19 for the next :meth:`step`.
@@ -330,7 +336,7 @@ class AirDataEstimator:
         roll = float(frame.euler_rad[0]) if frame.euler_rad is not None else 0.0
         if self._t_prev_us is None or self._theta_prev is None:
             # the first node's bounds need t_s: the stream's measured period
-            if self.cfg.envelope is not None and not math.isfinite(frame.air_period_s):
+            if self.envelope is not None and not math.isfinite(frame.air_period_s):
                 p.theta_p, p.reason = None, "air-data sample period not measured yet"
                 return p
             self._schedule_bounds(theta_p, frame.air_period_s, roll)

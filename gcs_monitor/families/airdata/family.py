@@ -26,6 +26,7 @@ import numpy as np
 
 from gcs_monitor.families.airdata.config import AirDataFamilyConfig
 from gcs_monitor.families.airdata.estimator import AirDataEstimator
+from gcs_monitor.families.airdata.weather import WeatherEstimator, wind_ned
 from gcs_monitor.families.base import FamilyContext, Verdict
 from gcs_monitor.fdi.config import scheduled_threshold, set_params
 from gcs_monitor.fdi.fusion import MheMeasurementFusion
@@ -57,7 +58,13 @@ class AirDataFamily:
             est_cfg = dataclasses.replace(cfg.filter, envelope=cfg.weather)
             self.estimator = AirDataEstimator(est_cfg, variant=cfg.estimator)
         self.reference = self.estimator.name if self.estimator is not None else "voting"
-        sigma = cfg.weather.turbulence_sigma_mps  # declared weather: J_th of the sets
+        # the weather: declared (Wan2018), or estimated from the flight with the declared as prior
+        self.weather = (WeatherEstimator(cfg.weather_estimate, cfg.weather)
+                        if cfg.weather_estimate.enabled else None)
+        envelope = self.weather.estimate.envelope if self.weather is not None else cfg.weather
+        if self.estimator is not None and self.weather is not None:
+            self.estimator.set_envelope(envelope)
+        sigma = envelope.turbulence_sigma_mps  # J_th of the sets follow the weather
         self.thresholds = {s: scheduled_threshold(getattr(cfg.fdi, s), sigma) for s in SETS}
         # built at the first air-data sample with the stream's measured period
         self.sets: dict[str, RedundantSetMonitor] = {}
@@ -65,6 +72,7 @@ class AirDataFamily:
         self._last: Estimate | None = None
         self._estimates: list[Estimate] = []
         self._inputs = False  # air data has been in the telemetry
+        self._hold = False  # an instance was suspected or isolated on this sample
 
     def predict(self, frame: Frame) -> tuple[float, float] | None:
         """eq. 17's reference alpha_hat_{k|k-1}, V_c_hat_{k|k-1} (None without one)."""
@@ -125,12 +133,61 @@ class AirDataFamily:
                 status = dataclasses.replace(status, fused=math.nan if fused is None else fused,
                                              weights=w)
                 verdict.fused[s] = fused
+            else:
+                verdict.fused[s] = status.fused if math.isfinite(status.fused) else None
             verdict.sets.append(status)
+            if events or self.sets[s].suspected:
+                self._hold = True
         return verdict
+
+    def _estimate_weather(self, frame: Frame, verdict: Verdict) -> Estimate | None:
+        """One wind sample from the fused air data into the weather estimate; the new envelope
+        (and the J_th scheduled on it) when the estimate is recomputed."""
+        w = self.weather
+        assert w is not None
+        t = frame.t_us
+        if self._hold:
+            w.hold(t)
+            self._hold = False
+        aoa, cas = verdict.fused.get("aoa"), verdict.fused.get("cas")
+        wind = None
+        if (aoa is not None and cas is not None and cas > 0.0 and frame.euler_rad is not None
+                and frame.gps_vel_ned_mps is not None and math.isfinite(frame.baro_alt_m)):
+            ssa = frame.ssa_rad if math.isfinite(frame.ssa_rad) else 0.0
+            wind = wind_ned(frame.gps_vel_ned_mps, frame.euler_rad, cas, aoa, ssa,
+                            frame.baro_alt_m)
+        env = w.add(t, wind)
+        if env is None:
+            return None
+        if self.estimator is not None:
+            self.estimator.set_envelope(env)
+        for s in SETS:
+            th = scheduled_threshold(getattr(self.cfg.fdi, s), env.turbulence_sigma_mps)
+            if th != self.thresholds[s]:
+                self.thresholds[s] = th
+                self.sets[s].set_threshold(th)
+                if s in self._fusion:
+                    self._fusion[s].set_threshold(th)
+        e = w.estimate
+        return Estimate("weather", t, states={
+            "mean_wind_ned_mps": np.array(e.mean_wind_ned_mps),
+            "turbulence_sigma_mps": np.array([e.turbulence_sigma_mps]),
+            "envelope_wind_mps": np.array([env.wind_mps, env.wind_z_mps]),
+            "envelope_turbulence_sigma_mps": np.array([env.turbulence_sigma_mps]),
+            "envelope_shear_rate_mps2": np.array([env.shear_rate_mps2]),
+            "converged": np.array([float(e.converged)])})
 
     def update(self, frame: Frame, verdict: Verdict) -> list[Estimate]:
         """The estimator's step on the fused measurements of this air-data sample; on other
-        Frames its latest estimate."""
+        Frames its latest estimate. Every judged sample goes into the weather estimate first
+        (its bounds hold from the next sample on)."""
+        weather = None
+        if self.weather is not None and verdict.sets:
+            weather = self._estimate_weather(frame, verdict)
+        out = self._step(frame, verdict)
+        return out + [weather] if weather is not None else out
+
+    def _step(self, frame: Frame, verdict: Verdict) -> list[Estimate]:
         if self.estimator is None:
             return []
         if verdict.sets:

@@ -1,0 +1,213 @@
+"""The weather of the flight, estimated from what the vehicle sends (ours; Wan2018 leaves it to
+the operator).
+
+Wan2018 eq. 21b's wind bounds "need to be properly selected according to the weather and flight
+conditions" (sec. VI-A); an operator does not know the turbulence before the flight. The wind is
+measured kinematically at every air-data sample from signals the monitor already trusts:
+
+    W_ned = V_gps_ned - C_ned_frd(phi, theta, psi) V_air_frd,
+    V_air_frd = V_t [cos(alpha) cos(beta), sin(beta), sin(alpha) cos(beta)],
+
+with V_t from the *fused* CAS (Wan2018 eq. 16 inverted, ISA), alpha the fused AoA (eq. 19) and
+beta the sideslip vane (0 when absent). It is robust to the faults the family monitors: the
+fused values leave isolated instances out, and the estimate is frozen while an instance is
+suspected (its J above J_th, not yet isolated) and for ``hold_s`` after any isolation, and while
+a set has no healthy instance.
+
+From the wind samples (one per air-data sample):
+
+* the mean wind is a running mean over ``mean_window_s``; the envelope's steady wind is the
+  largest horizontal (vertical) mean speed over the last ``memory_s``, which also holds a shear
+  that moved the mean;
+* the turbulence intensity is the RMS of the wind about that mean over ``turbulence_window_s``
+  (the three axes averaged: Dryden's sigma_u = sigma_v = sigma_w at altitude), the largest of the
+  last ``memory_s`` (fast attack, slow decay), times ``sigma_margin`` (a 30 s window holds about
+  ten gust correlation times at transport speeds: the estimate's own spread is ~25 %);
+* the shear rate is the largest change of the mean wind per second over ``memory_s``.
+
+Until ``converge_s`` of usable samples have been seen, the declared weather (``[airdata.weather]``,
+a prior) holds; afterwards the estimate does, never below ``floor``s that keep the CMHE's box open.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+from gcs_monitor.core.atmosphere import tas_from_cas
+from gcs_monitor.core.frames import dcm_ned_frd
+from gcs_monitor.core.params import param
+from gcs_monitor.models.airdata import WindEnvelope
+
+US_PER_S = 1_000_000
+
+
+@dataclass(frozen=True, slots=True)
+class WeatherConfig:
+    """Online estimate of the wind and the turbulence (``[airdata.estimate]``)."""
+
+    enabled: bool = param(True, "estimate the weather from the flight (false: the declared "
+                          "[airdata.weather] holds for the whole flight, as in Wan2018)")
+    mean_window_s: float = param(20.0, "running mean of the wind", positive=True)
+    turbulence_window_s: float = param(30.0, "span of the gust RMS", positive=True)
+    memory_s: float = param(60.0, "the envelope holds the largest wind, turbulence and shear "
+                            "rate of this span (fast attack, slow decay)", positive=True)
+    converge_s: float = param(20.0, "usable wind samples needed before the estimate replaces "
+                              "the declared prior", positive=True)
+    hold_s: float = param(5.0, "no update for this long after an instance was isolated",
+                          positive=True)
+    sigma_margin: float = param(1.25, "turbulence estimate multiplied by this (its own spread "
+                                "over one window)", positive=True)
+    update_s: float = param(1.0, "the envelope is recomputed this often", positive=True)
+    start_sigma_mps: float = param(3.54, "turbulence assumed until the estimate has converged, "
+                                   "when the declared weather says less (Lu2016's Dryden "
+                                   "default: the monitor starts conservative)", unit="kts")
+
+
+@dataclass(frozen=True, slots=True)
+class WeatherEstimate:
+    """What the estimator says, SI: mean wind NED, gust RMS, the envelope in force."""
+
+    converged: bool
+    mean_wind_ned_mps: tuple[float, float, float]
+    turbulence_sigma_mps: float
+    envelope: WindEnvelope
+
+
+def wind_ned(vel_ned_mps: np.ndarray, euler_rad: np.ndarray, cas_mps: float, aoa_rad: float,
+             ssa_rad: float, alt_m: float) -> np.ndarray:
+    """Kinematic wind ``W = V_ground - C_ned_frd V_air`` (module docstring), m/s NED."""
+    tas = tas_from_cas(cas_mps, alt_m)
+    ca, sa = math.cos(aoa_rad), math.sin(aoa_rad)
+    cb, sb = math.cos(ssa_rad), math.sin(ssa_rad)
+    v_air_frd = np.array([tas * ca * cb, tas * sb, tas * sa * cb])
+    C = dcm_ned_frd(float(euler_rad[0]), float(euler_rad[1]), float(euler_rad[2]))
+    return np.asarray(vel_ned_mps, dtype=np.float64) - C @ v_air_frd
+
+
+class _RunningMean:
+    """Mean of a vector over the last ``span_us`` of vehicle time (exact sums, O(1))."""
+
+    __slots__ = ("span_us", "_buf", "_sum")
+
+    def __init__(self, span_us: int) -> None:
+        self.span_us = span_us
+        self._buf: deque[tuple[int, np.ndarray]] = deque()
+        self._sum = np.zeros(3)
+
+    def add(self, t_us: int, x: np.ndarray) -> np.ndarray:
+        self._buf.append((t_us, x))
+        self._sum = self._sum + x
+        while self._buf[0][0] <= t_us - self.span_us:
+            self._sum = self._sum - self._buf.popleft()[1]
+        return self._sum / len(self._buf)
+
+    def __len__(self) -> int:
+        return len(self._buf)
+
+
+class _WindowMax:
+    """Largest value of the last ``span_us`` (monotonic deque)."""
+
+    __slots__ = ("span_us", "_q")
+
+    def __init__(self, span_us: int) -> None:
+        self.span_us = span_us
+        self._q: deque[tuple[int, float]] = deque()
+
+    def add(self, t_us: int, x: float) -> float:
+        q = self._q
+        while q and q[-1][1] <= x:
+            q.pop()
+        q.append((t_us, x))
+        while q[0][0] <= t_us - self.span_us:
+            q.popleft()
+        return q[0][1]
+
+
+class WeatherEstimator:
+    """The flight's weather from its wind samples (see the module docstring)."""
+
+    def __init__(self, cfg: WeatherConfig, prior: WindEnvelope) -> None:
+        self.cfg = cfg
+        self.prior = prior
+        us = US_PER_S
+        self._mean = _RunningMean(round(cfg.mean_window_s * us))
+        self._gust2 = _RunningMean(round(cfg.turbulence_window_s * us))
+        mem = round(cfg.memory_s * us)
+        self._max_h = _WindowMax(mem)
+        self._max_z = _WindowMax(mem)
+        self._max_sigma = _WindowMax(mem)
+        self._max_rate = _WindowMax(mem)
+        self._usable_us = 0
+        self._last_t: int | None = None
+        self._last_mean: np.ndarray | None = None
+        self._rate_ref: tuple[int, np.ndarray] | None = None
+        self._hold_until = -(1 << 62)
+        self._next_update = -(1 << 62)
+        self._update_us = round(cfg.update_s * us)
+        self._converge_us = round(cfg.converge_s * us)
+        self._hold_us = round(cfg.hold_s * us)
+        self._max_gap_us = round(cfg.update_s * us)
+        self.estimate = WeatherEstimate(False, (math.nan,) * 3, math.nan, self._start_envelope())
+        self._wind_h = self._wind_z = self._sigma = self._rate = 0.0
+
+    def hold(self, t_us: int) -> None:
+        """An instance was isolated (or its J crossed J_th): no update for ``hold_s``."""
+        self._hold_until = max(self._hold_until, t_us + self._hold_us)
+
+    def add(self, t_us: int, wind: np.ndarray | None) -> WindEnvelope | None:
+        """One air-data sample's kinematic wind (None when it cannot be trusted); returns the
+        new envelope when it is recomputed (every ``update_s``), else None."""
+        if wind is not None and t_us >= self._hold_until and np.all(np.isfinite(wind)):
+            if self._last_t is not None and 0 < t_us - self._last_t <= self._max_gap_us:
+                self._usable_us += t_us - self._last_t
+            self._last_t = t_us
+            mean = self._mean.add(t_us, wind)
+            gust = wind - mean
+            var = float(np.mean(self._gust2.add(t_us, gust * gust)))
+            self._wind_h = self._max_h.add(t_us, math.hypot(mean[0], mean[1]))
+            self._wind_z = self._max_z.add(t_us, abs(mean[2]))
+            self._sigma = self._max_sigma.add(t_us, math.sqrt(max(var, 0.0)))
+            self._last_mean = mean
+        if t_us < self._next_update:
+            return None
+        self._next_update = t_us + self._update_us
+        self._shear_rate(t_us)
+        env = self._envelope()
+        m = self._last_mean
+        mean = (float(m[0]), float(m[1]), float(m[2])) if m is not None else (math.nan,) * 3
+        self.estimate = WeatherEstimate(self._usable_us >= self._converge_us, mean,
+                                        self._sigma, env)
+        return env
+
+    def _shear_rate(self, t_us: int) -> None:
+        """The change of the mean wind since the previous update, once the mean's window is
+        full (its filling is not a shear); the memory max of it."""
+        m = self._last_mean
+        if m is None or self._usable_us < self._mean.span_us:
+            return
+        if self._rate_ref is not None:
+            t0, m0 = self._rate_ref
+            if t_us > t0:
+                rate = float(np.linalg.norm(m - m0)) / ((t_us - t0) / US_PER_S)
+                self._rate = self._max_rate.add(t_us, rate)
+        self._rate_ref = (t_us, m.copy())
+
+    def _start_envelope(self) -> WindEnvelope:
+        """The declared prior, with at least ``start_sigma_mps`` of turbulence."""
+        p = self.prior
+        return dataclasses.replace(
+            p, turbulence_sigma_mps=max(p.turbulence_sigma_mps, self.cfg.start_sigma_mps))
+
+    def _envelope(self) -> WindEnvelope:
+        if self._usable_us < self._converge_us:
+            return self._start_envelope()
+        return dataclasses.replace(
+            self.prior, wind_mps=self._wind_h, wind_z_mps=self._wind_z, shear_mps=0.0,
+            shear_z_mps=0.0, shear_rate_mps2=self._rate,
+            turbulence_sigma_mps=self.cfg.sigma_margin * self._sigma)
