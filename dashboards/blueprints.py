@@ -52,10 +52,17 @@ def family_tab(vehicle: int, views: FamilyViews) -> rrb.Container:
         name=views.tab)
 
 
+def coverage_view(vehicle: int) -> rrb.TimeSeriesView:
+    """Each family's share of the last window judged (monitor_degraded below 90 %)."""
+    return rrb.TimeSeriesView(name="Coverage: share of the last 10 s judged",
+                              origin=entity_path(vehicle, "coverage"))
+
+
 def overview(vehicle: int, views: Sequence[FamilyViews]) -> rrb.Container:
-    """One screen of the must-show plots: every family's overview plots in a grid."""
-    return rrb.Grid(*(plot(vehicle, p) for v in views for p in v.overview), grid_columns=2,
-                    name="Overview")
+    """One screen of the must-show plots: every family's overview plots in a grid, and the
+    families' coverage."""
+    return rrb.Grid(*(plot(vehicle, p) for v in views for p in v.overview),
+                    coverage_view(vehicle), grid_columns=2, name="Overview")
 
 
 def alarms_view(vehicle: int) -> rrb.TextLogView:

@@ -38,7 +38,7 @@ from gcs_monitor.core.constants import EARTH_RADIUS_M
 from gcs_monitor.core.frames import quat_from_euler
 from gcs_monitor.core.types import ChannelId, Vec, Vec3
 from gcs_monitor.fdi.events import AlarmEvent, AlarmKind, AlarmState, ChannelStatus, SetStatus
-from gcs_monitor.fdi.records import Estimate, StepOutput
+from gcs_monitor.fdi.records import Coverage, Estimate, StepOutput
 from gcs_monitor.sinks.schema import channel_unit, dumps, health_to_dict
 from gcs_monitor.telemetry.frame import Frame
 
@@ -82,6 +82,7 @@ def entity_path(vehicle: int, *parts: str | int) -> str:
         /<v>/channels/<ch>/fault/<estimator>          reconstructed fault
         /<v>/channels/<ch>/true_fault                 simulation truth (log_true_faults)
         /<v>/estimates/<estimator>/<state>            state vectors (one series per element)
+        /<v>/coverage/<family>          share of the last window the family judged
         /<v>/alarms                     TextLog of alarm transitions
         /<v>/health                     TextDocument with the latest health dict
         /<v>/world/track                LineStrips3D of the local NED track
@@ -334,6 +335,7 @@ class RerunSink:
         if self._last_plot_us is None or t_us - self._last_plot_us >= self._plot_period_us:
             self._last_plot_us = t_us
             self._sample_plots(frame, estimates, sets, channels)
+            self._sample_coverage(t_us, out.coverage)
             if sets:
                 self._last_sets_us = t_us
         elif sets and (self._last_sets_us is None
@@ -457,6 +459,16 @@ class RerunSink:
                 self._style(p, f"{ch} corrected")
                 add(p, t_us, v)
                 self._add_measured(frame, ch, t_us, measured_done)
+
+    def _sample_coverage(self, t_us: int, coverage: Sequence[Coverage]) -> None:
+        """Each family's share of the last window judged (fdi.coverage); 0.9 is the line below
+        which monitor_degraded is raised."""
+        for c in coverage:
+            if c.recent != c.recent:  # unavailable or starting: nothing to plot
+                continue
+            p = self._path("coverage", c.family)
+            self._style(p, f"{c.family} coverage")
+            self._buf.add(p, t_us, c.recent)
 
     def _add_measured(self, frame: Frame, ch: ChannelId, t_us: int, done: set[ChannelId]) -> None:
         if ch in done or ch.kind not in ("acc", "gyro"):
