@@ -48,38 +48,105 @@ def _solve(L, B):
     return X
 
 
+# ------------------------------------------------------------------------- equation segments
+# The pieces of one step between its factorisations. The kernels below (predict, update)
+# chain them with _linalg's Cholesky solves; two_stage._step_numpy chains the same pieces with
+# LAPACK's solves (the iterated first steps). See the two_stage module docstring.
+
+
+@jit
+def coupling(Phi, Gam, V, Pf, Qf):
+    """``U_bar = Phi V + Gamma`` (eq. 47), ``P^f_{k|k-1} = P^f + Q^f`` (eq. 41) and
+    ``W = Q^{xf} - U_bar Q^f`` with ``Q^{xf} = 0`` (eq. 49: ``U = U_bar + W (P^f_{k|k-1})^{-1}``).
+    """
+    Ubar = Phi @ V + Gam  # eq. 47
+    Pf_pred = Pf + Qf  # eq. 41
+    W = -(Ubar @ Qf)  # Qxf - Ubar Qf with Qxf = 0
+    return Ubar, Pf_pred, W
+
+
+@jit
+def prediction(Phi, Gam, Q, P_bar, Ubar, U, W, f):
+    """``u_bar`` (eq. 45) and ``P_bar_{k|k-1}`` (eq. 32 with ``Q_bar`` of eq. 46, symmetrised)."""
+    Qbar = Gam @ Q @ Gam.T - U @ W.T  # eq. 46
+    ubar = (Ubar - U) @ f  # eq. 45
+    Pp = Phi @ P_bar @ Phi.T + Qbar  # eq. 32
+    return ubar, 0.5 * (Pp + Pp.T)
+
+
+@jit
+def innovation_covariance(P_pred, H, R):
+    """``P H^T`` and ``S_x = H P H^T + R``, the parts of the gain of eq. 36."""
+    PHt = P_pred @ H.T
+    Sx = H @ PHt + R
+    return PHt, Sx
+
+
 @jit
 def joseph(P, K, H, R):
-    """Joseph form, symmetrised (Lu2016 eqs. 39, 44), with BLAS products as the numpy path's
-    ``covariance.joseph_update`` (``_linalg.joseph`` sums by loops: other round-off)."""
+    """Joseph form, symmetrised (eqs. 39, 44), with BLAS products (``_linalg.joseph`` sums
+    by loops: other round-off)."""
     A = np.eye(P.shape[0]) - K @ H
     Pn = A @ P @ A.T + K @ R @ K.T
     return 0.5 * (Pn + Pn.T)
 
 
 @jit
+def bias_terms(H, U, Pf_pred, Sx, y, hx, f):
+    """``S = H U`` (eq. 48), ``P^f S^T`` and ``S_x + S P^f S^T`` (the gain of eq. 42), and the
+    bias-filter innovation ``y - h(x_bar_{k|k-1}) - S f`` (eq. 43)."""
+    S = H @ U  # eq. 48
+    PfSt = Pf_pred @ S.T
+    Sig = Sx + S @ PfSt
+    gamma = y - hx - S @ f  # eq. 43 innovation
+    return S, PfSt, Sig, gamma
+
+
+@jit
+def blend(U, K, S, x_bar, P_bar, f, Kf, gamma, Pf_pred, Sx):
+    """Bias update (eqs. 43-44, Joseph form with ``R_eff = S_x``) and the blend (eqs. 50-52)."""
+    f_new = f + Kf @ gamma  # eq. 43
+    Pf_new = joseph(Pf_pred, Kf, S, Sx)  # eq. 44, Joseph form
+    V = U - K @ S  # eq. 50
+    x_hat = x_bar + V @ f_new  # eq. 51
+    Px = P_bar + V @ Pf_new @ V.T  # eq. 52
+    return f_new, Pf_new, V, x_hat, Px
+
+
+# ------------------------------------------------------------------------- the step
+
+
+@jit
 def predict(F, G, dt, V, Pf, Qf, f, P_bar, Q):
+    """Prediction of the non-iterated step (eqs. 32-34, 41, 45-49), ``Q^{xf} = 0``.
+
+    ``F``, ``G`` (eq. 34) come from the model at ``(x_hat, u_m - f_hat)`` (Lu2016 note 1).
+    Returns ``(ok, Gamma, U, u_bar, P_bar_{k|k-1}, P^f_{k|k-1})``; ``ok`` False if
+    ``P^f_{k|k-1}`` is not positive definite.
+    """
     n = F.shape[0]
     Phi, Gam = discretise(F, G, dt)  # eqs. 33-34
-    Ubar = Phi @ V + Gam  # eq. 47
-    Pf_pred = Pf + Qf  # eq. 41
+    Ubar, Pf_pred, W = coupling(Phi, Gam, V, Pf, Qf)  # eqs. 47, 41
     Lf = np.zeros(Pf_pred.shape)
     if not cholesky(Pf_pred, Lf):
         return False, Gam, Ubar, np.zeros(n), P_bar, Pf_pred
-    W = -(Ubar @ Qf)  # Qxf - Ubar Qf with Qxf = 0
     U = Ubar + _solve(Lf, W.T).T  # eq. 49
-    Qbar = Gam @ Q @ Gam.T - U @ W.T  # eq. 46
-    ubar = (Ubar - U) @ f  # eq. 45
-    Pp = Phi @ P_bar @ Phi.T + Qbar  # eq. 32
-    return True, Gam, np.ascontiguousarray(U), ubar, 0.5 * (Pp + Pp.T), Pf_pred
+    ubar, P_pred = prediction(Phi, Gam, Q, P_bar, Ubar, U, W, f)  # eqs. 45-46, 32
+    return True, Gam, np.ascontiguousarray(U), ubar, P_pred, Pf_pred
 
 
 @jit
 def update(x_pred, P_pred, hx, H, y, R, U, Pf_pred, f, gamma2, k, adapt, Gam, Q, Qf, dt, gate):
+    """Update of the non-iterated step (eqs. 35-44, 48, 50-52) and the adaptation (53-58).
+
+    ``hx``, ``H`` are the model's output and its Jacobian at ``x_pred`` (eq. 35). Returns
+    ``(ok, x_bar, P_bar, f, P^f, V, x_hat, P_x, gamma2, Q^f_next, nu, S_diag, test_ratio)``;
+    on a non-PD innovation covariance or a non-finite innovation ``ok`` is False and only the
+    innovation entries are meaningful.
+    """
     m = y.shape[0]
     b = f.shape[0]
-    PHt = P_pred @ H.T
-    Sx = H @ PHt + R
+    PHt, Sx = innovation_covariance(P_pred, H, R)
     L = np.zeros(Sx.shape)
     nan_m = np.full(m, np.nan)
     if not cholesky(Sx, L):
@@ -102,10 +169,7 @@ def update(x_pred, P_pred, hx, H, y, R, U, Pf_pred, f, gamma2, k, adapt, Gam, Q,
     K = np.ascontiguousarray(K)
     x_bar = x_pred + K @ (y - hx)  # eqs. 37-38 (eta1 = x_pred: no iteration)
     P_bar = joseph(P_pred, K, H, R)  # eq. 39
-    S = H @ U  # eq. 48
-    PfSt = Pf_pred @ S.T
-    Sig = Sx + S @ PfSt
-    gamma = y - hx - S @ f  # eq. 43 innovation
+    S, PfSt, Sig, gamma = bias_terms(H, U, Pf_pred, Sx, y, hx, f)  # eqs. 48, 42, 43
     s_diag = np.empty(m)
     for i in range(m):
         s_diag[i] = Sig[i, i]
@@ -128,11 +192,7 @@ def update(x_pred, P_pred, hx, H, y, R, U, Pf_pred, f, gamma2, k, adapt, Gam, Q,
         )
     ratio = gamma * gamma / (gate * gate * s_diag)
     Kf = np.ascontiguousarray(_solve(Lg, PfSt.T).T)  # eq. 42
-    f_new = f + Kf @ gamma  # eq. 43
-    Pf_new = joseph(Pf_pred, Kf, S, Sx)  # eq. 44, Joseph form
-    V = U - K @ S  # eq. 50
-    x_hat = x_bar + V @ f_new  # eq. 51
-    Px = P_bar + V @ Pf_new @ V.T  # eq. 52
+    f_new, Pf_new, V, x_hat, Px = blend(U, K, S, x_bar, P_bar, f, Kf, gamma, Pf_pred, Sx)
     g2 = gamma2.copy()
     nwin = g2.shape[0]
     g2[k % nwin, :] = gamma * gamma
@@ -151,12 +211,12 @@ def update(x_pred, P_pred, hx, H, y, R, U, Pf_pred, f, gamma2, k, adapt, Gam, Q,
                 q = 0.0
                 for j in range(m):
                     q += HGQ[i, j] * HG[i, j]
-                qt[i] = max(cr / nwin - q / dt - R[i, i], 0.0)
+                qt[i] = max(cr / nwin - q / dt - R[i, i], 0.0)  # eqs. 53, 58 (diagonal)
             for i in range(b):
                 acc = 0.0
                 for j in range(m):
                     acc += A[i, j] * A[i, j] * qt[j]
-                Qf_next[i, i] = acc * dt * dt
+                Qf_next[i, i] = acc * dt * dt  # eq. 57, main diagonal
     ok = np.all(np.isfinite(x_hat)) and np.all(np.isfinite(Px)) and np.all(np.isfinite(f_new))
     return (
         ok,
