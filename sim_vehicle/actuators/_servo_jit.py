@@ -14,11 +14,13 @@ inputs in a ``(3, N_IN)`` array whose columns are the ``I_*`` names below. Loade
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numba
 import numpy as np
 
-from gcs_monitor.models.servo import ServoLoopParams, ServoParams
+if TYPE_CHECKING:  # pack_params reads their fields; no jitted code uses another module
+    from gcs_monitor.models.servo import ServoLoopParams, ServoParams
 
 jit = numba.njit(cache=True, fastmath=False, nogil=True)
 
