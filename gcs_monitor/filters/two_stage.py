@@ -23,8 +23,8 @@ explained in docs/papers-notes.md):
 5. The Q^f adaptation starts once the window holds N innovations; before, Q^f keeps its
    initial value.
 
-``Q^{xf}``, the state/fault noise cross covariance that Lu2016 sec. 3.1 allows for (after its
-ref. [30]), is zero here, as in Lu2016's simulations.
+``Q^{xf}``, the state/fault noise cross covariance, is zero (Lu2016 sec. 3.1, after its
+ref. [30]).
 
 Where each step runs. After the first ``n_iterated_steps`` steps, a step with the built-in
 discretisation runs in the numba kernels of ``filters/_two_stage_jit.py`` (:func:`_step_compiled`;
