@@ -43,6 +43,7 @@ import numpy as np
 
 from gcs_monitor.core import constants as c
 from gcs_monitor.core.atmosphere import gravity_mps2
+from gcs_monitor.core.kernels import load_kernels
 from gcs_monitor.core.params import param, section
 from gcs_monitor.core.types import ChannelId, Mat, Vec
 from gcs_monitor.fdi.records import Estimate
@@ -60,7 +61,6 @@ from gcs_monitor.models.kinematics_body import (
     body_gs_meas_jac,
     body_gs_measurement,
     body_gs_noise_matrix,
-    compiled_kernels,
     drift_rate_to_fault,
     fault_from_drift_rate,
 )
@@ -133,8 +133,8 @@ class ImuHosmConfig:
     propagate: str = param("corrected", "model evaluated at the drift-corrected estimate "
                            "(corrected) or at x_bar as eq. 20 reads (paper)",
                            choices=("corrected", "paper"))
-    compiled: bool = param(True, "run model, OTSEKF and HOSM through their numba kernels (same "
-                           "equations)")
+    compiled: bool = param(True, "run the model through its numba kernel (false: the numpy "
+                           "model, its reference; OTSEKF and HOSM always run their kernels)")
 
 
 @dataclass(frozen=True, slots=True)
@@ -170,7 +170,8 @@ class ImuHosmEstimator:
         self._q_imu_diag: Vec = self._Q_imu.diagonal().copy()
         self._eye = np.eye(N_STATE)
         self._zero_B = np.zeros((N_STATE, N_STATE))
-        self._kb = compiled_kernels() if self.cfg.compiled else None
+        kb = "gcs_monitor.models._kinematics_body_jit"
+        self._kb = load_kernels(kb) if self.cfg.compiled else None
         # Work arrays of the compiled path: the kernels overwrite them every step and the filter
         # does not keep them, so one OtsekfPrediction is reused.
         ns = N_STATE
@@ -311,7 +312,6 @@ class ImuHosmEstimator:
             self._R,
             gate_sigma=self.cfg.gate_sigma,
             wrap_idx=(_PSI,),
-            compiled=compiled,
         )
         self._t_prev_us = frame.t_us
         if not innov.numerics_ok:
@@ -319,24 +319,22 @@ class ImuHosmEstimator:
             self._init(st.y)
             return self._estimate(frame.t_us, st, np.zeros(N_STATE), np.zeros(N_STATE), False)
         self._filt = filt
-        self._f_hat = self._fault_update(x_prev, mu_prev, filt, st.dt_s, compiled)
+        self._f_hat = self._fault_update(x_prev, mu_prev, filt, st.dt_s)
         return self._estimate(frame.t_us, st, innov.nu, innov.test_ratio, True)
 
-    def _fault_update(
-        self, x_prev: Vec, mu_prev: Vec, filt: OtsekfState, dt_s: float, compiled: bool
-    ) -> Vec:
+    def _fault_update(self, x_prev: Vec, mu_prev: Vec, filt: OtsekfState, dt_s: float) -> Vec:
         """Eqs. 47-50 and eq. 51 (``mapping``, see the module docstring)."""
         assert self._hosm is not None
         kb = self._kb
         if self.cfg.mapping != "exact":
-            self._hosm = hosm_step(self._hosm, filt.mu, self._lambdas, dt_s, compiled=compiled)
+            self._hosm = hosm_step(self._hosm, filt.mu, self._lambdas, dt_s)
             return drift_rate_to_fault(self._hosm.z[1], filt.x_hat, mapping=self.cfg.mapping)
         # drift increment of step k-1 -> k into fault coordinates at the state the model used
         if kb is not None:
             kb.fault_integral_step(x_prev, filt.mu, mu_prev, self._f_int)
         else:
             self._f_int = self._f_int + fault_from_drift_rate(filt.mu - mu_prev, x_prev)
-        self._hosm = hosm_step(self._hosm, self._f_int, self._lambdas, dt_s, compiled=compiled)
+        self._hosm = hosm_step(self._hosm, self._f_int, self._lambdas, dt_s)
         return cast(Vec, self._hosm.z[1].copy())
 
     def _estimate(self, t_us: int, st: _Step, nu: Vec, ratio: Vec, ok: bool) -> Estimate:
