@@ -157,17 +157,17 @@ def test_numerical_failure_resets() -> None:
 def test_compiled_estimator_matches_numpy_reference(
     propagate: str, mapping: str, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """Model + OTSEKF + HOSM through the numba kernels vs the numpy references (the estimator's
-    numpy model, compiled=False, and tests/reference's OTSEKF and HOSM steps), 5 s of Table 2
-    faults (500 steps, HOSM switching included). Measured difference ~1e-12 m/s^2."""
-    from gcs_monitor.estimators import imu_hosm
-
+    """Model + OTSEKF + HOSM through the numba kernels vs the numpy references
+    (tests/reference: the estimator's model quantities, the OTSEKF and HOSM steps), 5 s of
+    Table 2 faults (500 steps, HOSM switching included). Measured difference ~1e-12 m/s^2."""
+    from gcs_monitor.families.imu import imu_hosm
+    from tests.reference.imu_hosm import use_numpy
     from tests.reference.otsekf import otsekf_step_reference
     from tests.reference.sliding_mode import hosm_step_reference
 
     run = make_run(5.0, faults=table2_faults, seed=4)
-    est_nb = ImuHosmEstimator(ImuHosmConfig(propagate=propagate, mapping=mapping, compiled=True))
-    est_py = ImuHosmEstimator(ImuHosmConfig(propagate=propagate, mapping=mapping, compiled=False))
+    est_nb = ImuHosmEstimator(ImuHosmConfig(propagate=propagate, mapping=mapping))
+    est_py = use_numpy(ImuHosmEstimator(ImuHosmConfig(propagate=propagate, mapping=mapping)))
     for fr in run.frames:
         e_nb = est_nb.step(fr)
         with monkeypatch.context() as m:  # est_py's filters: the numpy references
