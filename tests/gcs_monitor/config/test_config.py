@@ -207,7 +207,7 @@ def test_lateral_terms_switch_reaches_the_estimator(tmp_path):
     assert est.cfg.lateral_terms is False
     _, est_default = build_estimators(load_config(None))
     assert est_default.cfg.lateral_terms is True  # the monitor's default: bank and sideslip
-    from gcs_monitor.evaluation.wan2018 import variant_config
+    from gcs_monitor.evaluation.configs import variant_config
 
     assert variant_config("cmhe").airdata.lateral_terms is False  # the paper reproductions
     assert variant_config("cmhe", lateral=True).airdata.lateral_terms is True
