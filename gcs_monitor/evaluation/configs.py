@@ -128,9 +128,10 @@ def consensus_config(base: MonitorConfig | None = None) -> MonitorConfig:
 
 def light_aircraft_config() -> AirDataEstimatorConfig:
     """CMHE tuning for a light aircraft at 46-75 kts (configuration, not code; see
-    docs/papers-notes.md, Wan2018, "Low speed (46-75 kt) and the OnSpeed tuning"). Model-error weights scaled by about
-    (V_transport / V_light)^2 ~ 10-25 against the transport defaults; wind bounds for a
-    calm-air flight-test day: |W_x| <= 15 m/s, |W_z| <= 3 m/s, wind rate <= 0.5 m/s^2."""
+    docs/papers-notes.md, Wan2018, "Low speed (46-75 kt) and the OnSpeed tuning"). Model-error
+    weights scaled by about (V_transport / V_light)^2 ~ 10-25 against the transport defaults;
+    wind bounds for a calm-air flight-test day: |W_x| <= 15 m/s, |W_z| <= 3 m/s, wind rate
+    <= 0.5 m/s^2."""
     return AirDataEstimatorConfig(
         dt_nominal_s=0.02,  # OnSpeed air data at 40-50 Hz
         q_alpha_rad2ps2=1.0e-2,  # 1/V_t ~ 1/V_g and f_w,alpha/V_t errors ~ 0.1 rad/s

@@ -16,8 +16,8 @@ run (:func:`score_air_run`):
 
 IMU (Lu2016, Atmaca2025): per-channel RMSE of ``f_hat - f`` over scoring windows that are the
 same for every estimator: the fault window is scored from 1 s after it opens to its end (a step
-fault needs a few hundred ms to be followed, as in docs/results.md, "Synthetic truth"); the fault-free windows
-are [2 s, first fault start) and [last fault end + 2 s, end of run).
+fault needs a few hundred ms to be followed, as in docs/results.md, "Synthetic truth"); the
+fault-free windows are [2 s, first fault start) and [last fault end + 2 s, end of run).
 """
 
 from __future__ import annotations
