@@ -42,8 +42,9 @@ chromium:
 bench: $(VENV)/.installed-bench
 	$(PY) benchmarks/run_all.py
 
-# ruff and mypy strict with the project's rules (pyproject [tool.ruff], [tool.mypy]); not part
-# of `make test`
+# ruff, mypy strict and the import-linter layer contracts with the project's rules (pyproject
+# [tool.ruff], [tool.mypy], [tool.importlinter]); the contracts also run in `make test`
 lint: $(VENV)/.installed-dev
 	$(VENV)/bin/ruff check gcs_monitor sim_vehicle dashboards benchmarks tests
 	$(VENV)/bin/mypy
+	$(VENV)/bin/lint-imports

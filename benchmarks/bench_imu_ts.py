@@ -75,11 +75,10 @@ def bench_two_stage(us: np.ndarray, ys: np.ndarray, adapt: bool) -> tuple[float,
 
 def bench_two_stage_packed(us: np.ndarray, ys: np.ndarray) -> tuple[float, float]:
     """The ATSEKF step as ImuTwoStageEstimator runs it: numba GS-KM + one packed filter call."""
+    from gcs_monitor.core.kernels import load_kernels
     from gcs_monitor.filters.two_stage import PackedTwoStage
-    from gcs_monitor.models.kinematics import compiled_gs_km
 
-    kin = compiled_gs_km()
-    assert kin is not None and PackedTwoStage.available(), "needs numba"
+    kin = load_kernels("gcs_monitor.models._kinematics_jit")
     est = ImuTwoStageEstimator(ImuTsConfig())
     noise = TwoStageNoise(Q=est._noise.Q, R=est._noise.R)
     cfg = TwoStageConfig(adapt=True)

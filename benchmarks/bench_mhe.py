@@ -1,13 +1,13 @@
 """Per-sample cost of the Wan2018 real-time CMHE against CasADi on the same N = 3 problem.
 
-Runs the CMHE (numba kernel if installed, else numpy) over a synthetic 250 kt flight with a
+Runs the CMHE (its numba kernels) over a synthetic 250 kt flight with a
 three-CAS runaway (so the wind bounds become active), records every horizon problem
 (arrival prior, y, output mask, Theta, t_s), and re-solves each with CasADi: IPOPT and
 sqpmethod + qrqp, both warm-started from their own previous (shifted) solution. Prints median
 and p99 per-sample times, the ratio t_CMHE / t_solver, and the deviation of x_hat_{k|k} from
 ours (for CasADi: the converged NLP against our one real-time iteration; for the numpy reference
-of the CMHE: round-off). Targets: CMHE at least 10x faster than IPOPT, and no slower than
-sqpmethod + qrqp (median ratio <= 1).
+of the CMHE, tests/reference/mhe.py: round-off). Targets: CMHE at least 10x faster than IPOPT,
+and no slower than sqpmethod + qrqp (median ratio <= 1).
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_mhe.py [--samples 600] [--lateral]
 
@@ -24,45 +24,49 @@ import argparse
 import logging
 import sys
 import time
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests" / "helpers"))
+sys.path.insert(0, str(ROOT))  # tests.reference (the numpy reference row)
 
 import airdata_synth as synth  # noqa: E402
 
 from gcs_monitor.core import constants as c  # noqa: E402
 from gcs_monitor.core.units import KT2MPS  # noqa: E402
 from gcs_monitor.families.airdata.estimator import AirDataEstimator, AirDataEstimatorConfig  # noqa: E402
-from gcs_monitor.filters.mhe import compiled_kernel  # noqa: E402
 
 log = logging.getLogger("bench_mhe")
 PAPER_MS = 5.8
 
 
 def record_problems(
-    n_samples: int, *, compiled: bool = True, lateral: bool = False
+    n_samples: int, *, reference: bool = False, lateral: bool = False
 ) -> tuple[list[dict[str, np.ndarray]], np.ndarray, np.ndarray]:
-    """Run the CMHE estimator, timing mhe_step; return horizon problems and our x_hat_{k|k}."""
+    """Run the CMHE estimator, timing mhe_step (``reference``: its numpy reference,
+    tests/reference/mhe.py, instead); return horizon problems and our x_hat_{k|k}."""
     faults = tuple(synth.SensorFault("cas", i, 15.0, "runaway", -15.0 * KT2MPS) for i in range(3))
     dur = n_samples * 0.05 + 2.0
     run = synth.generate(synth.SynthConfig(duration_s=dur, faults=faults), np.random.default_rng(3))
     est = AirDataEstimator(AirDataEstimatorConfig(lateral_terms=lateral), variant="cmhe")
-    est.ip = replace(est.ip, compiled=compiled)
     probs: list[dict[str, np.ndarray]] = []
     times: list[float] = []
     x_ours: list[np.ndarray] = []
     import gcs_monitor.families.airdata.estimator as mod
 
     orig = mod.mhe_step
+    step = orig
+    if reference:
+        from tests.reference.mhe import mhe_step_reference
+
+        step = mhe_step_reference
 
     def timed(*args, **kw):  # type: ignore[no-untyped-def]
         prev = args[0]
         t0 = time.perf_counter()
-        out = orig(*args, **kw)
+        out = step(*args, **kw)
         times.append(time.perf_counter() - t0)
         s = out[0]
         if s.n == prev.n:  # full horizon: prior = x_hat_{l|k-1} = previous node 1
@@ -214,11 +218,9 @@ def main() -> None:
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     est = AirDataEstimator(AirDataEstimatorConfig(lateral_terms=args.lateral), variant="cmhe")
     probs, t_ours, x_ours = record_problems(args.samples, lateral=args.lateral)
-    kern = "numba" if compiled_kernel() is not None else "numpy"
-    rows = [(f"CMHE RTI ({kern}) mhe_step", t_ours, None)]
-    if kern == "numba":
-        _, t_ref, x_ref = record_problems(args.samples, compiled=False, lateral=args.lateral)
-        rows.append(("CMHE RTI (numpy reference) mhe_step", t_ref, x_ref))
+    rows = [("CMHE RTI (numba) mhe_step", t_ours, None)]
+    _, t_ref, x_ref = record_problems(args.samples, reference=True, lateral=args.lateral)
+    rows.append(("CMHE RTI (numpy reference) mhe_step", t_ref, x_ref))
     for solver in ("ipopt", "sqpmethod+qrqp"):
         t, xs = run_casadi(est, probs, "ipopt" if solver == "ipopt" else "sqp")
         rows.append((f"CasADi {solver}", t[5:], xs))

@@ -6,9 +6,10 @@ the file (TlogSource chunks -> ...):
 
 * decode only (Decoder.feed);
 * decode + FrameAssembler (Frames, no pipeline);
-* Monitor, FDI layer on every redundant set, estimators off (imu_ts off, airdata "none");
+* Monitor, FDI layer on every redundant set, estimators off (imu family off, airdata "none");
   target >= 100x;
-* Monitor with the default estimators (Lu2016 ATSEKF + Wan2018 CMHE) and FDI;
+* Monitor with the default families (Lu2016 ATSEKF, Wan2018 CMHE with the weather estimate) and
+  FDI;
 * bound (not used by the monitor): MAVLink 2 framing with ``struct``, the X.25 CRC through
   ``binascii.crc_hqx`` on bit-reversed bytes, and payload unpacking of only the message ids
   the assembler consumes -- what a specialised decoder could reach.
@@ -24,7 +25,6 @@ from __future__ import annotations
 
 import argparse
 import binascii
-import dataclasses
 import os
 import statistics
 import struct
@@ -174,13 +174,13 @@ def main() -> None:
     t_read = time.perf_counter() - t0
     n_bytes = sum(len(c) for c, _ in chunks)
     base = MonitorConfig()
-    fdi_only = dataclasses.replace(base, estimators=dataclasses.replace(
-        base.estimators, imu_ts=False, imu_hosm=False, airdata="none"))
+    fdi_only = base.with_family("imu", enabled=False).with_family("airdata", estimator="none")
     stages: list[tuple[str, str, Callable[[list[tuple[bytes, float]]], int]]] = [
         ("decode", "decode only (Decoder.feed)", stage_decode),
         ("assemble", "decode + FrameAssembler", stage_assemble),
         ("fdi", "Monitor: FDI on all redundant sets, estimators off", stage_monitor(fdi_only)),
-        ("full", "Monitor: default estimators (imu_ts + cmhe) + FDI", stage_monitor(base)),
+        ("full", "Monitor: default families (imu: imu_ts; airdata: cmhe) + FDI",
+         stage_monitor(base)),
         ("bound", "bound: struct/crc_hqx framing of the monitored ids (not the monitor)",
          stage_framing_bound),
     ]

@@ -15,6 +15,7 @@ cases run interleaved ``--repeat`` times; the table gives the median wall-clock 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import os
 import statistics
 import tempfile
@@ -22,7 +23,6 @@ import time
 from pathlib import Path
 
 from gcs_monitor.config import MonitorConfig
-from gcs_monitor.config.loader import EstimatorsConfig
 from gcs_monitor.link.transports import TlogSource
 from gcs_monitor.monitor import Monitor
 
@@ -45,9 +45,18 @@ def flight_tlog(cache: Path, preset: str, duration_s: float) -> Path:
     return path
 
 
-def replay(chunks: list[tuple[bytes, float]], est: EstimatorsConfig) -> tuple[int, int]:
+def imu_config(ts: bool, hosm: bool) -> MonitorConfig:
+    """Both, one or the other IMU estimator, air data judged against its consensus."""
+    base = MonitorConfig()
+    imu = base.family("imu")
+    imu = dataclasses.replace(imu, ts=dataclasses.replace(imu.ts, enabled=ts),
+                              hosm=dataclasses.replace(imu.hosm, enabled=hosm))
+    return base.with_family("imu", imu).with_family("airdata", estimator="none")
+
+
+def replay(chunks: list[tuple[bytes, float]], cfg: MonitorConfig) -> tuple[int, int]:
     """Frames and alarm events of one replay of the chunks."""
-    mon = Monitor(MonitorConfig(estimators=est))
+    mon = Monitor(cfg)
     for chunk, wall_s in chunks:
         mon.feed(chunk, wall_s)
     mon.finish()
@@ -68,9 +77,9 @@ def main() -> None:
     with TlogSource(path) as src:
         chunks = list(src)
     cases = [
-        ("imu_ts + FDI", EstimatorsConfig(imu_ts=True, imu_hosm=False, airdata="none")),
-        ("imu_hosm + FDI", EstimatorsConfig(imu_ts=False, imu_hosm=True, airdata="none")),
-        ("imu_ts + imu_hosm + FDI", EstimatorsConfig(imu_ts=True, imu_hosm=True, airdata="none")),
+        ("imu_ts + FDI", imu_config(True, False)),
+        ("imu_hosm + FDI", imu_config(False, True)),
+        ("imu_ts + imu_hosm + FDI", imu_config(True, True)),
     ]
     print(f"flight: {args.preset}, {args.duration:g} s, tlog {path.stat().st_size / 1e6:.1f} MB; "
           f"load average before: {os.getloadavg()[0]:.1f}", flush=True)

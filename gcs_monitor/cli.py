@@ -231,13 +231,13 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     from gcs_monitor.evaluation import registry
 
     if args.preset_set:
-        from gcs_monitor.evaluation.harness import run_campaign
+        from gcs_monitor.evaluation.campaign import run_campaign
 
         res = run_campaign(args.preset_set, args.runs, args.jobs, args.out, seed=args.seed,
                            config=load_config(args.config) if args.config else None)
         print(res.markdown)
         return 0
-    experiments = registry.experiments()
+    experiments = registry.experiments(args.data_dir)
     if args.list:
         width = max(map(len, experiments))
         for name in sorted(experiments):
@@ -301,6 +301,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--out", type=Path, default=Path("eval_out"),
                    help="folder for tables, CSVs and plots (default eval_out)")
     s.add_argument("--config", type=Path, help="monitor TOML for --preset-set campaigns")
+    s.add_argument("--data-dir", type=Path, help="real flight data for the real-data experiments "
+                   "(default: $GCS_DATA_DIR, else ../shared/data/real beside the repository)")
     s.set_defaults(func=cmd_evaluate)
     s = sub.add_parser("convert",
                        help="convert real flight data (Zipline/OnSpeed/ALFA CSV) to .tlog")

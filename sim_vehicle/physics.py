@@ -24,13 +24,13 @@ import numpy as np
 
 from gcs_monitor.core import atmosphere as atm
 from gcs_monitor.core import constants as c
+from gcs_monitor.core.kernels import load_kernels
 from gcs_monitor.core.units import DEG2RAD
 from sim_vehicle.actuators.faults import ActuatorFault
 from sim_vehicle.actuators.servo_bank import ActuatorGeometry, ServoBank
 from sim_vehicle.autopilot.loops import Autopilot, Feedback
 from sim_vehicle.autopilot.manoeuvres import ManoeuvreScript, ManoeuvreSpec
 from sim_vehicle.autopilot.trim import Trim, trim_level
-from sim_vehicle.dynamics import _rigid_body_jit as rbj
 from sim_vehicle.dynamics.airframe import Airframe, load_airframe
 from sim_vehicle.dynamics.rigid_body import RigidBody, dcm_from_quat_fast, gravity_fast
 from sim_vehicle.environment.wind import WindField
@@ -130,6 +130,7 @@ class Simulation:
         mean = self.wind.mean
         self.trim: Trim = trim_level(self.body, lat, lon, init.alt_m, tas, hdg, mean)
         self.x = list(self.trim.state)
+        self._rbj = rbj = load_kernels("sim_vehicle.dynamics._rigid_body_jit")
         self._prm = rbj.pack_params(self.body)
         act = self.airframe.actuators
         self.servos = ServoBank(
@@ -240,10 +241,11 @@ class Simulation:
         self.wind.advance_turbulence(self._state.tas_mps)
         w1 = self.wind.wind_ned(self.t_s + dt, dcm_from_quat_fast(*self.x[6:10]))
         # The derivative evaluated for the published state is this step's k1 (same state, surfaces
-        # and wind); only the engine-lag term depends on the new throttle command. The compiled
-        # kernel is ``rigid_body.rk4_step`` followed by ``RigidBody.evaluate`` at the new state.
+        # and wind); only the engine-lag term depends on the new throttle command. The kernel
+        # is the RK4 step followed by ``evaluate`` at the new state.
         k1 = self._deriv
         k1[13] = (thr - self.x[13]) / self.body.tau_engine_s
+        rbj = self._rbj
         xa = np.empty(rbj.N_STATE)
         deriv = np.empty(rbj.N_STATE)
         out = np.empty(rbj.N_OUT)

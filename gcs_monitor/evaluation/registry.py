@@ -1,4 +1,10 @@
-"""Named experiments for ``gcs-monitor evaluate --experiment NAME``.
+"""Named experiments for ``gcs-monitor evaluate --experiment NAME`` (``--list`` describes them).
+
+Each module below defines ``experiments()``: name -> ``fn(out_dir, jobs, quick)`` returning
+Markdown; the modules on real flight data define ``real_data_experiments()`` instead, whose
+functions also take the real-data folder. The registry hands every experiment out with the same
+three arguments and resolves that folder (:func:`~gcs_monitor.evaluation.data.real_data_dir`:
+``--data-dir``, ``GCS_DATA_DIR``, ``../shared/data/real``) when a real-data experiment runs.
 
 The evaluation package is the one part of gcs_monitor that drives the simulator (sim_vehicle):
 evaluation needs ground truth by definition. Nothing else in gcs_monitor imports sim_vehicle.
@@ -6,30 +12,50 @@ evaluation needs ground truth by definition. Nothing else in gcs_monitor imports
 
 from __future__ import annotations
 
-import importlib
+import functools
 import re
 from collections.abc import Callable
 from pathlib import Path
 
-Experiment = Callable[[Path, int, bool], str]
-MODULES = ("gcs_monitor.evaluation.sim_checks", "gcs_monitor.evaluation.imu",
-           "gcs_monitor.evaluation.imu_real", "gcs_monitor.evaluation.wan2018",
-           "gcs_monitor.evaluation.harness")
+from gcs_monitor.evaluation import campaign, sim_checks
+from gcs_monitor.evaluation.data import real_data_dir
+from gcs_monitor.evaluation.papers import (
+    atmaca2025,
+    imu_detection,
+    lu2016,
+    lu2016_real,
+    wan2018,
+    wan2018_real,
+)
+
+Experiment = Callable[[Path, int, bool], str]  # (out_dir, jobs, quick) -> Markdown
+RealDataExperiment = Callable[[Path, int, bool, Path], str]  # ... and the real-data folder
+
+SIMULATED: tuple[Callable[[], dict[str, Experiment]], ...] = (
+    sim_checks.experiments, lu2016.experiments, atmaca2025.experiments,
+    imu_detection.experiments, wan2018.experiments, campaign.experiments)
+REAL_DATA: tuple[Callable[[], dict[str, RealDataExperiment]], ...] = (
+    lu2016_real.real_data_experiments, wan2018_real.real_data_experiments)
 
 
-def experiments() -> dict[str, Experiment]:
-    """Every experiment of every evaluation module that defines ``experiments()``."""
+def _on_data(fn: RealDataExperiment, data_dir: Path | None) -> Experiment:
+    """``fn`` with the real-data folder resolved when it runs (so ``--list`` needs no data)."""
+
+    @functools.wraps(fn)
+    def run(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
+        return fn(out_dir, jobs, quick, real_data_dir(data_dir))
+
+    return run
+
+
+def experiments(data_dir: Path | None = None) -> dict[str, Experiment]:
+    """Every experiment by name; the real-data ones read ``data_dir`` (``--data-dir``; None:
+    ``GCS_DATA_DIR`` or the default, see :func:`~gcs_monitor.evaluation.data.real_data_dir`)."""
     out: dict[str, Experiment] = {}
-    for name in MODULES:
-        try:
-            mod = importlib.import_module(name)
-        except ModuleNotFoundError as exc:
-            if exc.name == name:
-                continue
-            raise
-        fn = getattr(mod, "experiments", None)
-        if fn is not None:
-            out.update(fn())
+    for hook in SIMULATED:
+        out.update(hook())
+    for real in REAL_DATA:
+        out.update({name: _on_data(fn, data_dir) for name, fn in real().items()})
     return out
 
 

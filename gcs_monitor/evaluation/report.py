@@ -1,6 +1,8 @@
-"""Campaign report: Markdown tables, CSV files and PNG plots from a :class:`CampaignResult`.
+"""Everything the evaluation writes: Markdown tables, CSV files and PNG plots.
 
-Files written into the campaign's ``out_dir``:
+The generic helpers (:func:`md_table`, :func:`write_csv`, :func:`pyplot`, the number formats)
+are used by every experiment. The campaign report (:func:`write_report`) writes into a
+campaign's ``out_dir``:
 
 * ``report.md`` -- the Markdown returned as ``CampaignResult.markdown``;
 * ``metrics.csv`` -- Wan2018 Table IV rows, one per (method, group);
@@ -16,29 +18,110 @@ import csv
 import math
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from gcs_monitor.core.units import DEG2RAD, KT2MPS
+from gcs_monitor.evaluation.records import (
+    AXES,
+    METHOD_MONITOR,
+    REPORT_SCALE,
+    UNITS,
+    CampaignResult,
+    ImuRun,
+    RunRecord,
+)
 from gcs_monitor.fdi.metrics import MetricsRow
 
-if TYPE_CHECKING:
-    from gcs_monitor.evaluation.harness import CampaignResult, RunRecord
-
-# display units per group (SI / factor = display value)
-UNIT = {"aoa": ("deg", DEG2RAD), "cas": ("kt", KT2MPS), "acc": ("m/s²", 1.0),
-        "gyro": ("deg/s", DEG2RAD)}
 METHOD_LABEL = {"monitor": "monitor", "median_vote": "median vote (baseline)",
                 "fixed_threshold": "fixed threshold (baseline)", "virtual": "MHE virtual sensor"}
 
 
-def _f(x: float, nd: int = 2) -> str:
+# ------------------------------------------------------------------------------------------------
+# generic helpers
+# ------------------------------------------------------------------------------------------------
+
+
+def fmt_fixed(x: float | None, nd: int = 2) -> str:
+    """``x`` with ``nd`` decimals; ``-`` for None, NaN and infinities."""
     return "-" if x is None or not math.isfinite(x) else f"{x:.{nd}f}"
 
 
+def fmt_sig(x: float, nd: int = 3) -> str:
+    """``x`` with ``nd`` significant digits (exponent form from 1e4); ``-`` when not finite."""
+    if not math.isfinite(x):
+        return "-"
+    return f"{x:.{nd}g}" if abs(x) < 1e4 else f"{x:.3e}"
+
+
+def md_table(header: Sequence[str], rows: Sequence[Sequence[Any]]) -> str:
+    """A Markdown table; float cells with :func:`fmt_sig`, every other cell with ``str``."""
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(fmt_sig(c) if isinstance(c, float) else str(c) for c in r) + " |"
+              for r in rows]
+    return "\n".join(lines)
+
+
+def write_csv(path: Path, header: Sequence[str], rows: Sequence[Sequence[Any]]) -> Path:
+    """One CSV file (its folder created); returns ``path``."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(header)
+        w.writerows(rows)
+    return path
+
+
+def write_metrics_csv(path: Path, tables: dict[str, list[MetricsRow]]) -> Path:
+    """Wan2018 Table IV rows, one per (method, group), as CSV."""
+    return write_csv(path, ["method", "group", "n_fault_free", "n_faulty", "far_pct", "mdr_pct",
+                            "fir_pct", "delay_max_s", "delay_mean_s"],
+                     [[m, r.group, r.n_fault_free, r.n_faulty, r.far_pct, r.mdr_pct, r.fir_pct,
+                       r.delay_max_s, r.delay_mean_s] for m, rows in tables.items() for r in rows])
+
+
+def pyplot() -> Any:
+    """``matplotlib.pyplot`` on the Agg backend (files only, no display)."""
+    # imported here, not at the top: pyplot takes ~0.5 s to import and only plotting needs it
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def plot_imu_run(run: ImuRun, names: Sequence[str], path: Path, title: str = "") -> None:
+    """f_hat of each estimator against the true fault, six panels (acc m/s^2, gyro deg/s)."""
+    plt = pyplot()
+    fig, axs = plt.subplots(3, 2, figsize=(11, 8), sharex=True)
+    units = ("m/s^2",) * 3 + ("deg/s",) * 3
+    for i in range(6):
+        ax = axs[i % 3, i // 3]
+        ax.plot(run.t_s, run.f_true[:, i] * REPORT_SCALE[i], "k", lw=2, label="true")
+        for n in names:
+            if n in run.f_hat:
+                ax.plot(run.t_s, run.f_hat[n][:, i] * REPORT_SCALE[i], lw=0.8, label=n)
+        ax.set_ylabel(f"f_{AXES[i]} [{units[i]}]")
+        ax.grid(True, alpha=0.3)
+    axs[0, 0].legend(fontsize=7)
+    axs[2, 0].set_xlabel("t [s]")
+    axs[2, 1].set_xlabel("t [s]")
+    fig.suptitle(title or run.name)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
 def _disp(group: str, si: float) -> float:
-    return si / UNIT.get(group, ("", 1.0))[1]
+    return si / UNITS.get(group, ("", 1.0))[1]
+
+
+# ------------------------------------------------------------------------------------------------
+# campaign report (``gcs-monitor evaluate --preset-set``)
+# ------------------------------------------------------------------------------------------------
 
 
 def monitor_label(res: CampaignResult) -> str:
@@ -49,15 +132,14 @@ def monitor_label(res: CampaignResult) -> str:
 
 
 def metrics_markdown(res: CampaignResult) -> str:
-    lines = ["| method | group | fault-free runs | faulty runs | FAR [%] | MDR [%] | FIR [%] "
-             "| DetD max [s] | DetD mean [s] |", "|---|---|---|---|---|---|---|---|---|"]
-    for m, rows in res.tables.items():
-        label = monitor_label(res) if m == "monitor" else METHOD_LABEL[m]
-        for r in rows:
-            lines.append(f"| {label} | {r.group} | {r.n_fault_free} | {r.n_faulty} "
-                         f"| {_f(r.far_pct)} | {_f(r.mdr_pct)} | {_f(r.fir_pct)} "
-                         f"| {_f(r.delay_max_s)} | {_f(r.delay_mean_s)} |")
-    return "\n".join(lines)
+    rows = []
+    for m, mrows in res.tables.items():
+        label = monitor_label(res) if m == METHOD_MONITOR else METHOD_LABEL[m]
+        rows += [[label, r.group, r.n_fault_free, r.n_faulty, fmt_fixed(r.far_pct),
+                  fmt_fixed(r.mdr_pct), fmt_fixed(r.fir_pct), fmt_fixed(r.delay_max_s),
+                  fmt_fixed(r.delay_mean_s)] for r in mrows]
+    return md_table(["method", "group", "fault-free runs", "faulty runs", "FAR [%]", "MDR [%]",
+                     "FIR [%]", "DetD max [s]", "DetD mean [s]"], rows)
 
 
 def per_kind_markdown(runs: Sequence[RunRecord]) -> str:
@@ -67,9 +149,7 @@ def per_kind_markdown(runs: Sequence[RunRecord]) -> str:
         for fr in r.fault_results:
             acc.setdefault((fr.kind, fr.method), []).append((fr.detected, fr.delay_s))
     methods = sorted({m for _, m in acc}, key=lambda m: list(METHOD_LABEL).index(m))
-    lines = ["| fault kind | faults | " + " | ".join(
-        f"{METHOD_LABEL[m]}: detected [%] / mean delay [s]" for m in methods) + " |",
-             "|---|---|" + "---|" * len(methods)]
+    rows = []
     for kind in sorted({k for k, _ in acc}):
         cells = []
         n = 0
@@ -77,10 +157,11 @@ def per_kind_markdown(runs: Sequence[RunRecord]) -> str:
             v = acc.get((kind, m), [])
             n = len(v)
             det = [d for ok, d in v if ok]
-            mean = _f(float(np.mean(det)) if det else math.nan)
+            mean = fmt_fixed(float(np.mean(det)) if det else math.nan)
             cells.append(f"{100.0 * len(det) / n:.0f} / {mean}" if n else "-")
-        lines.append(f"| {kind} | {n} | " + " | ".join(cells) + " |")
-    return "\n".join(lines)
+        rows.append([kind, n, *cells])
+    return md_table(["fault kind", "faults"] + [
+        f"{METHOD_LABEL[m]}: detected [%] / mean delay [s]" for m in methods], rows)
 
 
 def output_markdown(runs: Sequence[RunRecord]) -> str:
@@ -93,13 +174,13 @@ def output_markdown(runs: Sequence[RunRecord]) -> str:
                 recon.setdefault(ch.rstrip("0123456789"), []).append(v)
     if recon:
         lines += ["Fault reconstruction (monitor): RMS over the fault interval of "
-                  "`(y_i - reference) - f_i`, f_i the applied fault (truth).", "",
-                  "| set | faulty channels | RMSE mean | RMSE max |", "|---|---|---|---|"]
+                  "`(y_i - reference) - f_i`, f_i the applied fault (truth).", ""]
+        rows = []
         for s, vals in sorted(recon.items()):
-            u = UNIT[s][0]
-            lines.append(f"| {s} | {len(vals)} | {_f(_disp(s, float(np.mean(vals))), 3)} {u} "
-                         f"| {_f(_disp(s, float(np.max(vals))), 3)} {u} |")
-        lines.append("")
+            u = UNITS[s][0]
+            rows.append([s, len(vals), f"{fmt_fixed(_disp(s, float(np.mean(vals))), 3)} {u}",
+                         f"{fmt_fixed(_disp(s, float(np.max(vals))), 3)} {u}"])
+        lines += [md_table(["set", "faulty channels", "RMSE mean", "RMSE max"], rows), ""]
     out: dict[tuple[str, str], list[float]] = {}
     lost: dict[tuple[str, str], int] = {}
     for r in runs:
@@ -111,14 +192,15 @@ def output_markdown(runs: Sequence[RunRecord]) -> str:
     if out:
         lines += ["Output handed downstream vs truth, RMS over all air-data samples (all runs): "
                   "adaptive weighted fusion (monitor), median selection (baselines), MHE "
-                  "estimate (virtual sensor).", "",
-                  "| output | set | runs | RMSE mean | RMSE max | samples without output |",
-                  "|---|---|---|---|---|---|"]
+                  "estimate (virtual sensor).", ""]
+        rows = []
         for (m, s), errs in sorted(out.items(), key=lambda kv: (kv[0][1], kv[0][0])):
-            u = UNIT[s][0]
-            lines.append(f"| {METHOD_LABEL[m]} | {s} | {len(errs)} "
-                         f"| {_f(_disp(s, float(np.mean(errs))), 3)} {u} "
-                         f"| {_f(_disp(s, float(np.max(errs))), 3)} {u} | {lost[(m, s)]} |")
+            u = UNITS[s][0]
+            rows.append([METHOD_LABEL[m], s, len(errs),
+                         f"{fmt_fixed(_disp(s, float(np.mean(errs))), 3)} {u}",
+                         f"{fmt_fixed(_disp(s, float(np.max(errs))), 3)} {u}", lost[(m, s)]])
+        lines.append(md_table(["output", "set", "runs", "RMSE mean", "RMSE max",
+                               "samples without output"], rows))
     return "\n".join(lines)
 
 
@@ -129,62 +211,50 @@ def calibration_markdown(res: CampaignResult) -> str:
     free = [r for r in res.runs if not r.faulty]
     if not free:
         return "No fault-free run in this campaign."
-    lines = ["| group | J_th in use | largest fault-free J | margin J_th / J | calibrate() "
-             "(rule max, k=1.5) |", "|---|---|---|---|---|"]
+    rows = []
     for g in ("aoa", "cas", "acc", "gyro"):
         js = [r.j_max[g] for r in free if g in r.j_max]
         if not js:
             continue
-        u = UNIT[g][0]
+        u = UNITS[g][0]
         jm = max(js)
         cal = [r.j_calibrated[g] for r in free if g in r.j_calibrated]
         c = f"{_disp(g, max(cal)):.3g} {u}" if cal else "-"
-        lines.append(f"| {g} | {_disp(g, th[g]):.3g} {u} | {_disp(g, jm):.3g} {u} "
-                     f"| {th[g] / jm if jm > 0 else math.inf:.2f} | {c} |")
-    return "\n".join(lines)
+        rows.append([g, f"{_disp(g, th[g]):.3g} {u}", f"{_disp(g, jm):.3g} {u}",
+                     f"{th[g] / jm if jm > 0 else math.inf:.2f}", c])
+    return md_table(["group", "J_th in use", "largest fault-free J", "margin J_th / J",
+                     "calibrate() (rule max, k=1.5)"], rows)
 
 
-def _write_csvs(res: CampaignResult) -> list[Path]:
+def _write_campaign_csvs(res: CampaignResult) -> list[Path]:
     out = res.out_dir
-    files = []
-    p = out / "metrics.csv"
-    with open(p, "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["method", "group", "n_fault_free", "n_faulty", "far_pct", "mdr_pct",
-                    "fir_pct", "delay_max_s", "delay_mean_s"])
-        for m, rows in res.tables.items():
-            for row in rows:
-                w.writerow([m, row.group, row.n_fault_free, row.n_faulty, row.far_pct,
-                            row.mdr_pct, row.fir_pct, row.delay_max_s, row.delay_mean_s])
-    files.append(p)
-    p = out / "runs.csv"
-    with open(p, "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["run", "name", "seed", "duration_s", "manoeuvre", "wind", "faults", "method",
-                    "group", "faulty_run", "false_alarm", "missed", "false_isolation",
-                    "delay_s", "raised", "wall_s"])
-        for r in res.runs:
-            fs = ";".join(f"{f.channel}:{f.kind}@{f.t_start_us * 1e-6:g}" for f in r.faults)
-            for m, d in r.outcomes.items():
-                for g, o in d.items():
-                    w.writerow([r.index, r.name, r.seed, r.duration_s, r.manoeuvre, r.wind, fs, m,
-                                g, int(o.faulty_run), int(o.false_alarm), int(o.missed),
-                                int(o.false_isolation), o.delay_s, r.raised.get(m, 0),
-                                round(r.wall_s, 3)])
-    files.append(p)
-    p = out / "faults.csv"
-    with open(p, "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["run", "name", "channel", "kind", "t_start_s", "method", "detected",
-                    "delay_s", "recon_rmse_si"])
-        for r in res.runs:
-            starts = {str(f.channel): f.t_start_us * 1e-6 for f in r.faults}
-            for fr in r.fault_results:
-                w.writerow([r.index, r.name, fr.channel, fr.kind, starts[fr.channel], fr.method,
-                            int(fr.detected), fr.delay_s,
-                            r.recon_rmse.get(fr.channel, math.nan) if fr.method == "monitor"
-                            else ""])
-    files.append(p)
+    files = [write_metrics_csv(out / "metrics.csv", res.tables)]
+    runs = []
+    for r in res.runs:
+        fs = ";".join(f"{f.channel}:{f.kind}@{f.t_start_us * 1e-6:g}" for f in r.faults)
+        for m, d in r.outcomes.items():
+            for g, o in d.items():
+                runs.append([r.index, r.name, r.seed, r.duration_s, r.manoeuvre, r.wind, fs, m,
+                             g, int(o.faulty_run), int(o.false_alarm), int(o.missed),
+                             int(o.false_isolation), o.delay_s, r.raised.get(m, 0),
+                             round(r.wall_s, 3)])
+    files.append(write_csv(
+        out / "runs.csv",
+        ["run", "name", "seed", "duration_s", "manoeuvre", "wind", "faults", "method", "group",
+         "faulty_run", "false_alarm", "missed", "false_isolation", "delay_s", "raised",
+         "wall_s"], runs))
+    faults = []
+    for r in res.runs:
+        starts = {str(f.channel): f.t_start_us * 1e-6 for f in r.faults}
+        for fr in r.fault_results:
+            faults.append([r.index, r.name, fr.channel, fr.kind, starts[fr.channel], fr.method,
+                           int(fr.detected), fr.delay_s,
+                           r.recon_rmse.get(fr.channel, math.nan)
+                           if fr.method == METHOD_MONITOR else ""])
+    files.append(write_csv(
+        out / "faults.csv",
+        ["run", "name", "channel", "kind", "t_start_s", "method", "detected", "delay_s",
+         "recon_rmse_si"], faults))
     ex = next((r for r in res.runs if r.series is not None), None)
     if ex is not None and ex.series is not None:
         p = out / "example_series.csv"
@@ -202,12 +272,8 @@ def _write_csvs(res: CampaignResult) -> list[Path]:
     return files
 
 
-def _plots(res: CampaignResult) -> list[Path]:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+def _campaign_plots(res: CampaignResult) -> list[Path]:
+    plt = pyplot()
     out = res.out_dir
     files = []
     methods = list(res.tables)
@@ -258,7 +324,7 @@ def _plots(res: CampaignResult) -> list[Path]:
         t = s["t_us"] * 1e-6
         fig, axs = plt.subplots(2, 2, figsize=(11, 6), sharex=True)
         for col, g in enumerate(("aoa", "cas")):
-            u, scale = UNIT[g]
+            u, scale = UNITS[g]
             th = res.config.fdi.aoa.threshold if g == "aoa" else res.config.fdi.cas.threshold
             ax = axs[0, col]
             for i in range(s[f"{g}.measured"].shape[1]):
@@ -288,7 +354,7 @@ def _plots(res: CampaignResult) -> list[Path]:
 
 def write_report(res: CampaignResult, *, jobs: int = 1) -> tuple[str, list[Path]]:
     """Write every file of the campaign; return the Markdown and the files written."""
-    files = _write_csvs(res) + _plots(res)
+    files = _write_campaign_csvs(res) + _campaign_plots(res)
     c = res.config
     n_free = sum(1 for r in res.runs if not r.faulty)
     run_s = [r.wall_s for r in res.runs]
@@ -336,10 +402,3 @@ def write_report(res: CampaignResult, *, jobs: int = 1) -> tuple[str, list[Path]
     p = res.out_dir / "report.md"
     p.write_text(text)
     return text, [p] + files
-
-
-def metrics_rows_csv(rows: Sequence[MetricsRow]) -> list[dict[str, Any]]:
-    """Rows as dicts (for callers assembling their own tables)."""
-    return [{"group": r.group, "n_fault_free": r.n_fault_free, "n_faulty": r.n_faulty,
-             "far_pct": r.far_pct, "mdr_pct": r.mdr_pct, "fir_pct": r.fir_pct,
-             "delay_max_s": r.delay_max_s, "delay_mean_s": r.delay_mean_s} for r in rows]

@@ -13,18 +13,17 @@ from pathlib import Path
 import numpy as np
 from scipy import signal
 
+from gcs_monitor.evaluation.report import md_table
 from gcs_monitor.models.kinematics import gs_km_f
-
-
-def _md(header: list[str], rows: list[list[str]]) -> str:
-    out = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    return "\n".join(out + ["| " + " | ".join(r) + " |" for r in rows])
+from sim_vehicle.environment.wind import DrydenTurbulence, dryden_psd
+from sim_vehicle.physics import InitialCondition, ManoeuvreConfig, Simulation, WindConfig
+from sim_vehicle.sensors.noise import ATMACA2025, LU2016
+from sim_vehicle.sensors.suite import SensorSuite, group_sigma, true_values
+from sim_vehicle.state import TrueState
 
 
 def trim_hold(duration_s: float = 120.0) -> str:
     """Calm air, trimmed default airframe, level flight: altitude and airspeed excursions."""
-    from sim_vehicle.physics import InitialCondition, ManoeuvreConfig, Simulation, WindConfig
-
     rows = []
     for airframe in ("uav", "transport"):
         sim = Simulation(airframe, InitialCondition(), WindConfig(), ManoeuvreConfig(kind="level"))
@@ -37,13 +36,12 @@ def trim_hold(duration_s: float = 120.0) -> str:
             alt[k], tas[k] = s.alt_m, s.tas_mps
         rows.append([airframe, f"{duration_s:.0f}", f"{np.max(np.abs(alt - s0.alt_m)):.3f}",
                      f"{np.max(np.abs(tas - s0.tas_mps)):.3f}"])
-    return _md(["airframe", "duration [s]", "max |Δh| [m] (≤ 5)", "max |ΔV| [m/s] (≤ 1)"], rows)
+    return md_table(["airframe", "duration [s]", "max |Δh| [m] (≤ 5)", "max |ΔV| [m/s] (≤ 1)"],
+                    rows)
 
 
 def dryden_psd_check(hours: float = 2.0, seed: int = 1) -> str:
     """Welch PSD of simulated Dryden turbulence against Lu2016 eqs. 21-23, 0.1-2 rad/s."""
-    from sim_vehicle.environment.wind import DrydenTurbulence, dryden_psd
-
     dt, tas, sigma, scale = 0.01, 25.0, 3.54, 530.0
     turb = DrydenTurbulence(sigma, scale, dt, np.random.default_rng(seed))
     n = int(hours * 3600 / dt)
@@ -60,7 +58,7 @@ def dryden_psd_check(hours: float = 2.0, seed: int = 1) -> str:
         m = (omega >= lo) & (omega < hi)
         ratios = [float(np.mean(p_omega[m, i]) / np.mean(model[i][m])) for i in range(3)]
         rows.append([f"{lo:.2f}-{hi:.2f}"] + [f"{r:.2f}" for r in ratios])
-    return _md(["ω band [rad/s]", "Φ_u sim/eq.21", "Φ_v sim/eq.22", "Φ_w sim/eq.23"], rows) + \
+    return md_table(["ω band [rad/s]", "Φ_u sim/eq.21", "Φ_v sim/eq.22", "Φ_w sim/eq.23"], rows) + \
         (f"\n\n({hours:g} h record at V = {tas} m/s, σ = {sigma} m/s, L = {scale} m; "
          "target ratio 0.7-1.3)")
 
@@ -68,8 +66,6 @@ def dryden_psd_check(hours: float = 2.0, seed: int = 1) -> str:
 def eq11_consistency() -> str:
     """Integrate Lu2016 eq. 11 (the monitor's GS-KM) with the noise-free simulated specific force
     and attitude, from the true velocity; worst velocity error against the simulation over 10 s."""
-    from sim_vehicle.physics import InitialCondition, ManoeuvreConfig, Simulation, WindConfig
-
     cases = {
         "shear + turbulence": (WindConfig(kind="shear+turbulence", shear_start_s=12.0),
                                ManoeuvreConfig(kind="level"), 12.0),
@@ -102,17 +98,13 @@ def eq11_consistency() -> str:
                 err = max(err, float(np.max(np.abs(v - b.vel_ned_mps))))
             row.append(f"{err:.2e}")
         rows.append(row)
-    return _md(["case (60° N, 10 s)", "UAV max error [m/s]", "747 max error [m/s]"], rows) + \
+    return md_table(["case (60° N, 10 s)", "UAV max error [m/s]", "747 max error [m/s]"], rows) + \
         "\n\n(target ≤ 0.05 m/s)"
 
 
 def sensor_noise(seconds: float = 60.0) -> str:
     """Measured noise std per sensor group against the tables (Lu2016 Table 1, Atmaca2025
     Table 1)."""
-    from sim_vehicle.sensors.noise import ATMACA2025, LU2016
-    from sim_vehicle.sensors.suite import SensorSuite, group_sigma, true_values
-    from sim_vehicle.state import TrueState
-
     st = TrueState(t_s=0.0, lat_rad=0.9, lon_rad=0.08, alt_m=1000.0,
                    vel_ned_mps=np.array([100.0, 5.0, -2.0]), euler_rad=np.array([0.1, 0.05, 1.0]),
                    omega_frd_radps=np.array([0.01, -0.02, 0.03]),
@@ -137,7 +129,7 @@ def sensor_noise(seconds: float = 60.0) -> str:
             ratio = err.std(axis=0)[ok] / expect[ok]
             rows.append([sset.name, group, str(len(vals)),
                          f"{ratio.min():.3f}-{ratio.max():.3f}"])
-    return _md(["sensor set", "group", "samples", "measured σ / table σ (0.9-1.1)"], rows)
+    return md_table(["sensor set", "group", "samples", "measured σ / table σ (0.9-1.1)"], rows)
 
 
 def sim_physics(out_dir: Path, jobs: int, quick: bool) -> str:

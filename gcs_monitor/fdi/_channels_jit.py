@@ -2,11 +2,18 @@
 (Wan2018 eq. 18, ``residuals.ResidualRms``), history ring and n_D-of-N_eval confirmation
 (``confirmation.Confirmation``) of several channels in one call.
 
-Same arithmetic, same order as those classes (the reference; tests/gcs_monitor/fdi checks the
-bank against ChannelMonitor sample by sample), including the periodic exact re-summation, for
+Same arithmetic, same order as those classes, including the periodic exact re-summation, for
 which :func:`fsum` reproduces ``math.fsum`` (Shewchuk's algorithm with CPython's correctly
-rounded final sum). Alarm transitions and classification stay in Python. Imported lazily by
-``fdi.monitor`` and cached on disk by numba; no function here calls another module.
+rounded final sum); tests/gcs_monitor/fdi checks the bank against ChannelMonitor sample by
+sample, to the bit. Alarm transitions and classification stay in Python. Loaded by
+``fdi.monitor.ChannelBank`` through ``gcs_monitor.core.kernels``.
+
+Why the classes stay as well: they are not a reference kept for a test but what runs every
+redundant-set monitor (``RedundantSetMonitor``, Wan2018 eqs. 17-19 per triplex instance) and
+every channel a bank does not take (different window lengths); this kernel is their batched
+form for one estimator's fault channels. Routing the classes through it would cost a numba call
+per channel sample where they now do a few float operations, and those classes belong to the
+FDI layer's own modules (``fdi/residuals.py``, ``fdi/confirmation.py``).
 """
 # mypy: disable-error-code="no-untyped-def"
 

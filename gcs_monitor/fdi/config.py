@@ -19,7 +19,11 @@ from gcs_monitor.fdi.classify import ClassifierShape
 from gcs_monitor.fdi.confirmation import ConfirmationParams
 from gcs_monitor.fdi.monitor import ChannelMonitorParams, SetMonitorParams
 from gcs_monitor.fdi.residuals import RmsWindowParams
-from gcs_monitor.telemetry.period import samples_in
+
+
+def samples_in(window_s: float, period_s: float, *, minimum: int = 1) -> int:
+    """Samples of a stream of period ``period_s`` in ``window_s`` (at least ``minimum``)."""
+    return max(minimum, round(window_s / period_s))
 
 
 @dataclass(frozen=True, slots=True)

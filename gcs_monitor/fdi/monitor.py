@@ -25,7 +25,7 @@ from typing import Any, cast
 
 import numpy as np
 
-from gcs_monitor.core.optional import optional_module
+from gcs_monitor.core.kernels import load_kernels
 from gcs_monitor.core.types import ChannelId
 from gcs_monitor.fdi.alarms import AlarmParams, AlarmStateMachine
 from gcs_monitor.fdi.classify import ClassifierParams, ClassifierShape, classify_residual
@@ -591,7 +591,7 @@ class ChannelBank:
     transitions and classification run in Python through each channel's own
     :class:`ChannelMonitor` (its alarm state machine, classifier, counters). A monitor given to a
     bank is stepped only through the bank from then on (its own windows stay at their state).
-    :meth:`create` returns None when numba is missing or the monitors' window lengths differ.
+    :meth:`create` returns None when there are no monitors or their window lengths differ.
     """
 
     def __init__(self, monitors: Sequence[ChannelMonitor], kern: Any) -> None:
@@ -615,9 +615,9 @@ class ChannelBank:
 
     @classmethod
     def create(cls, monitors: Sequence[ChannelMonitor]) -> ChannelBank | None:
-        kern = optional_module("gcs_monitor.fdi._channels_jit")
-        if kern is None or not monitors:
+        if not monitors:
             return None
+        kern = load_kernels("gcs_monitor.fdi._channels_jit")
         p0 = monitors[0].p
         same = all(m.p.rms.rms_window_n == p0.rms.rms_window_n
                    and m.p.rms.recompute_every_n == p0.rms.recompute_every_n

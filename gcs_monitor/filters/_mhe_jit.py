@@ -1,16 +1,15 @@
-"""Numba kernels of the real-time MHE (Wan2018 sec. V, Algorithms 1-2).
+"""Numba kernels of the real-time MHE (Wan2018 sec. V, Algorithms 1-2): the implementation.
 
-Same algorithm, same order as the numpy reference in ``mhe.py`` (``_step_reference``,
-``barrier_ip_qp``, ``riccati_direction``); imported lazily by ``mhe.compiled_kernel`` and cached
-on disk by numba. Model-agnostic: the linearisation over the horizon (eq. 42) comes from the
-model (its optional compiled ``linearise_horizon``, or its methods node by node) between
-:func:`shift` and :func:`rti_solve`.
+``mhe.mhe_step`` runs them (loaded through ``gcs_monitor.core.kernels.load_kernels``); the
+numpy reference of the equivalence test is ``tests/reference/mhe.py``. Model-agnostic: the
+linearisation over the horizon (eq. 42) comes from the model (its optional compiled
+``linearise_horizon``, or its methods node by node, ``mhe._linearise``) between :func:`shift`
+and :func:`rti_solve`.
 
-Products are loops (4x4 to 8x8 matrices: a BLAS call per product costs more than the arithmetic).
+Products are loops (4x4 to 8x8 matrices: a BLAS call per product costs more than the arithmetic);
+the Cholesky factorisation and solves are ``filters/_linalg.py``'s.
 ``error_model="numpy"``: a division by zero gives inf/NaN, which the finiteness check of
 :func:`rti_solve` turns into ``numerics_ok = False``, instead of raising inside the pipeline.
-No function here calls a function of another module, so numba's per-file cache invalidation
-is sufficient.
 """
 # ruff: noqa: N803, N806
 # mypy: disable-error-code="no-untyped-def"
@@ -22,12 +21,17 @@ import math
 import numba
 import numpy as np
 
+from gcs_monitor.filters._linalg import cho_solve, cholesky
+
+# this file calls _linalg's jitted functions: see gcs_monitor.core.kernels
+KERNEL_DEPENDENCIES = {"gcs_monitor.filters._linalg": "67db0d1c07e50a4e"}
+
 jit = numba.njit(cache=True, fastmath=False, nogil=True, error_model="numpy")
 
 
 @jit
 def _clip_row(v, lb, ub):
-    """``mhe._clip_interior`` on one row, in place."""
+    """Clip one row into the box, a thousandth of each finite width inside it, in place."""
     for c in range(v.shape[0]):
         w = ub[c] - lb[c]
         margin = w * 1.0e-3 if math.isfinite(w) else 0.0
@@ -99,43 +103,12 @@ def shift(
         mk[keep, c] = y_mask[c]
     dts[keep] = 0.0
     if constrained:
-        # the barrier needs a strictly interior linearisation point (mhe._step_reference)
+        # the barrier needs a strictly interior linearisation point
         for i in range(n):
             _clip_row(x_lin[i], x_lb, x_ub)
         for i in range(n - 1):
             _clip_row(u_lin[i], u_lb, u_ub)
     return n
-
-
-@jit
-def _chol_solve_inplace(s_mat, rhs):
-    """Cholesky-factor s_mat (in place, lower) and overwrite rhs (m, k) with s_mat^-1 rhs."""
-    m = s_mat.shape[0]
-    for j in range(m):
-        d = s_mat[j, j]
-        for k in range(j):
-            d -= s_mat[j, k] * s_mat[j, k]
-        if not d > 0.0:
-            return False
-        d = math.sqrt(d)
-        s_mat[j, j] = d
-        for i in range(j + 1, m):
-            v = s_mat[i, j]
-            for k in range(j):
-                v -= s_mat[i, k] * s_mat[j, k]
-            s_mat[i, j] = v / d
-    for c in range(rhs.shape[1]):
-        for i in range(m):
-            v = rhs[i, c]
-            for k in range(i):
-                v -= s_mat[i, k] * rhs[k, c]
-            rhs[i, c] = v / s_mat[i, i]
-        for i in range(m - 1, -1, -1):
-            v = rhs[i, c]
-            for k in range(i + 1, m):
-                v -= s_mat[k, i] * rhs[k, c]
-            rhs[i, c] = v / s_mat[i, i]
-    return True
 
 
 @jit
@@ -164,7 +137,7 @@ def ip_solve(
     du,
     steps,
 ):
-    """Algorithm 1 (barrier IP) + Algorithm 2 (Riccati); ``mhe.barrier_ip_qp`` with loops.
+    """Algorithm 1 (barrier IP) + Algorithm 2 (Riccati) on the QP of eq. 42.
 
     Writes dx (N, n_x), du (N-1, n_u) and the step sizes; returns False if a Cholesky
     factorisation failed.
@@ -263,7 +236,10 @@ def ip_solve(
             for r_ in range(m):
                 for c_ in range(n_x):
                     rhs[r_, c_] = cbar[i, r_, c_]
-            if not _chol_solve_inplace(s_mat, rhs):
+            # Xi C_bar = S^{-1} C_bar (line 5), S factorised in place
+            if cholesky(s_mat, s_mat):
+                cho_solve(s_mat, rhs)
+            else:
                 ok = False
             for r_ in range(n_x):
                 for c_ in range(m):
@@ -422,7 +398,8 @@ def rti_solve(
     """The QP of eq. 42 around (x_lin, u_lin) and the new horizon solution.
 
     Writes ``x_new = x_lin + dx`` (N, n_x), ``u_new = u_lin + du`` (N-1, n_u) and the step
-    sizes. Returns ``(numerics_ok, n_active)`` as ``mhe._step_reference`` computes them.
+    sizes. Returns ``(numerics_ok, n_active)``: False if a factorisation failed or a result is
+    not finite; the number of entries within 1 % of their box width of a bound.
     """
     big_n, n_x = x_lin.shape
     n_um, n_u = u_lin.shape

@@ -1,7 +1,9 @@
 """Numba kernel of the recursive third-order Levant differentiator (Atmaca2025 eqs. 47-50).
 
-Same equations, same order as ``sliding_mode._hosm_step_reference``; imported lazily by
-``sliding_mode._kernels`` and cached on disk by numba.
+The implementation ``sliding_mode.hosm_step`` runs (loaded through
+``gcs_monitor.core.kernels.load_kernels``); the numpy reference of the equivalence test is
+``tests/reference/sliding_mode.py``. The exponents and the recursive form are explained in the
+``sliding_mode`` module docstring.
 """
 # ruff: noqa: N803
 # mypy: disable-error-code="no-untyped-def"
@@ -18,7 +20,8 @@ jit = numba.njit(cache=True, fastmath=False, nogil=True)
 
 @jit
 def hosm_step(z, f, lambdas, dt_s, z_next):
-    """One explicit-Euler step; ``z`` (4, nch) at t_k, writes ``z_next`` (4, nch) at t_{k+1}."""
+    """One explicit-Euler step of eqs. 47-50; ``z`` (4, nch) at t_k, writes ``z_next`` (4, nch)
+    at t_{k+1}."""
     for c in range(f.shape[0]):
         z0, z1, z2, z3 = z[0, c], z[1, c], z[2, c], z[3, c]
         e0 = z0 - f[c]

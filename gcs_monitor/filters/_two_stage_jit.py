@@ -1,9 +1,11 @@
-"""Numba kernels of the two-stage filter (Lu2016 eqs. 32-58, Q^{xf} = 0, non-iterated step).
+"""Numba kernels of the two-stage filter (Lu2016 eqs. 31-58): the non-iterated step.
 
-Same equations, same order as ``two_stage._step_reference``; imported lazily by
-``two_stage._kernels`` and cached on disk by numba. Cholesky solves are written out (with an
-ok flag instead of an exception) because the matrices are 6x6 and numba's LAPACK wrappers
-raise on a non-PD matrix.
+The implementation the monitor runs after the first ``n_iterated_steps`` steps, for
+``Q^{xf} = 0`` and the series discretisation of eqs. 33-34 (:func:`discretise`, which the
+numpy path of ``two_stage.py`` calls too). Loaded by ``two_stage`` through
+``gcs_monitor.core.kernels.load_kernels``. Products use numpy's ``@`` (BLAS, bit-identical to
+the numpy path's products); Cholesky solves and the inverse of eq. 57 come from
+``filters/_linalg.py`` (an ok flag where numba's LAPACK wrappers would raise).
 """
 # ruff: noqa: N803, N806, E741
 # mypy: disable-error-code="no-untyped-def"
@@ -13,89 +15,20 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from gcs_monitor.filters._linalg import cho_solve, cholesky, gauss_jordan_inverse
+
+# this file calls _linalg's jitted functions: see gcs_monitor.core.kernels
+KERNEL_DEPENDENCIES = {"gcs_monitor.filters._linalg": "67db0d1c07e50a4e"}
+
 jit = numba.njit(cache=True, fastmath=False, nogil=True)
 
 
 @jit
-def chol(A):
-    """Lower Cholesky factor; ok False if not PD or not finite."""
-    n = A.shape[0]
-    L = np.zeros((n, n))
-    for j in range(n):
-        d = A[j, j]
-        for k in range(j):
-            d -= L[j, k] * L[j, k]
-        if not d > 0.0:  # also catches NaN
-            return L, False
-        ljj = np.sqrt(d)
-        L[j, j] = ljj
-        for i in range(j + 1, n):
-            v = A[i, j]
-            for k in range(j):
-                v -= L[i, k] * L[j, k]
-            L[i, j] = v / ljj
-    return L, True
+def discretise(F, G, dt):
+    """``Phi = exp(F dt)`` and ``Gamma = int_0^dt exp(F s) ds G`` (Lu2016 eqs. 33-34).
 
-
-@jit
-def chol_solve(L, B):
-    """Solve (L L^T) X = B."""
-    n, r = B.shape
-    X = B.copy()
-    for c in range(r):
-        for i in range(n):
-            v = X[i, c]
-            for k in range(i):
-                v -= L[i, k] * X[k, c]
-            X[i, c] = v / L[i, i]
-        for i in range(n - 1, -1, -1):
-            v = X[i, c]
-            for k in range(i + 1, n):
-                v -= L[k, i] * X[k, c]
-            X[i, c] = v / L[i, i]
-    return X
-
-
-@jit
-def inv_general(A):
-    """Inverse by Gauss-Jordan with partial pivoting (eq. 57 needs (H Gamma)^{-1})."""
-    n = A.shape[0]
-    M = A.copy()
-    X = np.eye(n)
-    for c in range(n):
-        p = c
-        for i in range(c + 1, n):
-            if abs(M[i, c]) > abs(M[p, c]):
-                p = i
-        if M[p, c] == 0.0:
-            return X, False
-        if p != c:
-            for j in range(n):
-                M[c, j], M[p, j] = M[p, j], M[c, j]
-                X[c, j], X[p, j] = X[p, j], X[c, j]
-        piv = M[c, c]
-        for j in range(n):
-            M[c, j] /= piv
-            X[c, j] /= piv
-        for i in range(n):
-            if i != c:
-                fct = M[i, c]
-                if fct != 0.0:
-                    for j in range(n):
-                        M[i, j] -= fct * M[c, j]
-                        X[i, j] -= fct * X[c, j]
-    return X, True
-
-
-@jit
-def joseph(P, K, H, R):
-    A = np.eye(P.shape[0]) - K @ H
-    Pn = A @ P @ A.T + K @ R @ K.T
-    return 0.5 * (Pn + Pn.T)
-
-
-@jit
-def predict(F, G, dt, V, Pf, Qf, f, P_bar, Q):
+    Series truncated after ``(F dt)^3 / 3!`` (see ``two_stage.discretise_series``).
+    """
     n = F.shape[0]
     I = np.eye(n)
     A = F * dt
@@ -103,28 +36,120 @@ def predict(F, G, dt, V, Pf, Qf, f, P_bar, Q):
     A3 = A2 @ A
     Phi = I + A + A2 * 0.5 + A3 * (1.0 / 6.0)  # eq. 33
     Gam = ((I + A * 0.5 + A2 * (1.0 / 6.0) + A3 * (1.0 / 24.0)) * dt) @ G  # eq. 34
+    return Phi, Gam
+
+
+@jit
+def _solve(L, B):
+    """``(L L^T)^{-1} B`` as a new array (``B`` untouched)."""
+    X = np.empty(B.shape)
+    X[:, :] = B
+    cho_solve(L, X)
+    return X
+
+
+# ------------------------------------------------------------------------- equation segments
+# The pieces of one step between its factorisations. The kernels below (predict, update)
+# chain them with _linalg's Cholesky solves; two_stage._step_numpy chains the same pieces with
+# LAPACK's solves (the iterated first steps). See the two_stage module docstring.
+
+
+@jit
+def coupling(Phi, Gam, V, Pf, Qf):
+    """``U_bar = Phi V + Gamma`` (eq. 47), ``P^f_{k|k-1} = P^f + Q^f`` (eq. 41) and
+    ``W = Q^{xf} - U_bar Q^f`` with ``Q^{xf} = 0`` (eq. 49: ``U = U_bar + W (P^f_{k|k-1})^{-1}``).
+    """
     Ubar = Phi @ V + Gam  # eq. 47
     Pf_pred = Pf + Qf  # eq. 41
-    Lf, ok = chol(Pf_pred)
-    if not ok:
-        return False, Gam, Ubar, np.zeros(n), P_bar, Pf_pred
     W = -(Ubar @ Qf)  # Qxf - Ubar Qf with Qxf = 0
-    U = Ubar + chol_solve(Lf, np.ascontiguousarray(W.T)).T  # eq. 49
+    return Ubar, Pf_pred, W
+
+
+@jit
+def prediction(Phi, Gam, Q, P_bar, Ubar, U, W, f):
+    """``u_bar`` (eq. 45) and ``P_bar_{k|k-1}`` (eq. 32 with ``Q_bar`` of eq. 46, symmetrised)."""
     Qbar = Gam @ Q @ Gam.T - U @ W.T  # eq. 46
     ubar = (Ubar - U) @ f  # eq. 45
     Pp = Phi @ P_bar @ Phi.T + Qbar  # eq. 32
-    return True, Gam, np.ascontiguousarray(U), ubar, 0.5 * (Pp + Pp.T), Pf_pred
+    return ubar, 0.5 * (Pp + Pp.T)
+
+
+@jit
+def innovation_covariance(P_pred, H, R):
+    """``P H^T`` and ``S_x = H P H^T + R``, the parts of the gain of eq. 36."""
+    PHt = P_pred @ H.T
+    Sx = H @ PHt + R
+    return PHt, Sx
+
+
+@jit
+def joseph(P, K, H, R):
+    """Joseph form, symmetrised (eqs. 39, 44), with BLAS products (``_linalg.joseph`` sums
+    by loops: other round-off)."""
+    A = np.eye(P.shape[0]) - K @ H
+    Pn = A @ P @ A.T + K @ R @ K.T
+    return 0.5 * (Pn + Pn.T)
+
+
+@jit
+def bias_terms(H, U, Pf_pred, Sx, y, hx, f):
+    """``S = H U`` (eq. 48), ``P^f S^T`` and ``S_x + S P^f S^T`` (the gain of eq. 42), and the
+    bias-filter innovation ``y - h(x_bar_{k|k-1}) - S f`` (eq. 43)."""
+    S = H @ U  # eq. 48
+    PfSt = Pf_pred @ S.T
+    Sig = Sx + S @ PfSt
+    gamma = y - hx - S @ f  # eq. 43 innovation
+    return S, PfSt, Sig, gamma
+
+
+@jit
+def blend(U, K, S, x_bar, P_bar, f, Kf, gamma, Pf_pred, Sx):
+    """Bias update (eqs. 43-44, Joseph form with ``R_eff = S_x``) and the blend (eqs. 50-52)."""
+    f_new = f + Kf @ gamma  # eq. 43
+    Pf_new = joseph(Pf_pred, Kf, S, Sx)  # eq. 44, Joseph form
+    V = U - K @ S  # eq. 50
+    x_hat = x_bar + V @ f_new  # eq. 51
+    Px = P_bar + V @ Pf_new @ V.T  # eq. 52
+    return f_new, Pf_new, V, x_hat, Px
+
+
+# ------------------------------------------------------------------------- the step
+
+
+@jit
+def predict(F, G, dt, V, Pf, Qf, f, P_bar, Q):
+    """Prediction of the non-iterated step (eqs. 32-34, 41, 45-49), ``Q^{xf} = 0``.
+
+    ``F``, ``G`` (eq. 34) come from the model at ``(x_hat, u_m - f_hat)`` (Lu2016 note 1).
+    Returns ``(ok, Gamma, U, u_bar, P_bar_{k|k-1}, P^f_{k|k-1})``; ``ok`` False if
+    ``P^f_{k|k-1}`` is not positive definite.
+    """
+    n = F.shape[0]
+    Phi, Gam = discretise(F, G, dt)  # eqs. 33-34
+    Ubar, Pf_pred, W = coupling(Phi, Gam, V, Pf, Qf)  # eqs. 47, 41
+    Lf = np.zeros(Pf_pred.shape)
+    if not cholesky(Pf_pred, Lf):
+        return False, Gam, Ubar, np.zeros(n), P_bar, Pf_pred
+    U = Ubar + _solve(Lf, W.T).T  # eq. 49
+    ubar, P_pred = prediction(Phi, Gam, Q, P_bar, Ubar, U, W, f)  # eqs. 45-46, 32
+    return True, Gam, np.ascontiguousarray(U), ubar, P_pred, Pf_pred
 
 
 @jit
 def update(x_pred, P_pred, hx, H, y, R, U, Pf_pred, f, gamma2, k, adapt, Gam, Q, Qf, dt, gate):
+    """Update of the non-iterated step (eqs. 35-44, 48, 50-52) and the adaptation (53-58).
+
+    ``hx``, ``H`` are the model's output and its Jacobian at ``x_pred`` (eq. 35). Returns
+    ``(ok, x_bar, P_bar, f, P^f, V, x_hat, P_x, gamma2, Q^f_next, nu, S_diag, test_ratio)``;
+    on a non-PD innovation covariance or a non-finite innovation ``ok`` is False and only the
+    innovation entries are meaningful.
+    """
     m = y.shape[0]
     b = f.shape[0]
-    PHt = P_pred @ H.T
-    Sx = H @ PHt + R
-    L, ok = chol(Sx)
+    PHt, Sx = innovation_covariance(P_pred, H, R)
+    L = np.zeros(Sx.shape)
     nan_m = np.full(m, np.nan)
-    if not ok:
+    if not cholesky(Sx, L):
         return (
             False,
             x_pred,
@@ -140,19 +165,16 @@ def update(x_pred, P_pred, hx, H, y, R, U, Pf_pred, f, gamma2, k, adapt, Gam, Q,
             nan_m,
             nan_m,
         )
-    K = chol_solve(L, np.ascontiguousarray(PHt.T)).T  # eq. 36
+    K = _solve(L, PHt.T).T  # eq. 36
     K = np.ascontiguousarray(K)
     x_bar = x_pred + K @ (y - hx)  # eqs. 37-38 (eta1 = x_pred: no iteration)
     P_bar = joseph(P_pred, K, H, R)  # eq. 39
-    S = H @ U  # eq. 48
-    PfSt = Pf_pred @ S.T
-    Sig = Sx + S @ PfSt
-    gamma = y - hx - S @ f  # eq. 43 innovation
+    S, PfSt, Sig, gamma = bias_terms(H, U, Pf_pred, Sx, y, hx, f)  # eqs. 48, 42, 43
     s_diag = np.empty(m)
     for i in range(m):
         s_diag[i] = Sig[i, i]
-    Lg, ok = chol(Sig)
-    if not ok or not np.all(np.isfinite(gamma)):
+    Lg = np.zeros(Sig.shape)
+    if not cholesky(Sig, Lg) or not np.all(np.isfinite(gamma)):
         return (
             False,
             x_pred,
@@ -169,12 +191,8 @@ def update(x_pred, P_pred, hx, H, y, R, U, Pf_pred, f, gamma2, k, adapt, Gam, Q,
             nan_m,
         )
     ratio = gamma * gamma / (gate * gate * s_diag)
-    Kf = np.ascontiguousarray(chol_solve(Lg, np.ascontiguousarray(PfSt.T)).T)  # eq. 42
-    f_new = f + Kf @ gamma  # eq. 43
-    Pf_new = joseph(Pf_pred, Kf, S, Sx)  # eq. 44, Joseph form
-    V = U - K @ S  # eq. 50
-    x_hat = x_bar + V @ f_new  # eq. 51
-    Px = P_bar + V @ Pf_new @ V.T  # eq. 52
+    Kf = np.ascontiguousarray(_solve(Lg, PfSt.T).T)  # eq. 42
+    f_new, Pf_new, V, x_hat, Px = blend(U, K, S, x_bar, P_bar, f, Kf, gamma, Pf_pred, Sx)
     g2 = gamma2.copy()
     nwin = g2.shape[0]
     g2[k % nwin, :] = gamma * gamma
@@ -182,9 +200,9 @@ def update(x_pred, P_pred, hx, H, y, R, U, Pf_pred, f, gamma2, k, adapt, Gam, Q,
     if adapt and k + 1 >= nwin:  # eqs. 53, 57, 58
         HG = H @ Gam
         HGQ = HG @ Q
-        A, ok_inv = inv_general(HG)
+        A = np.empty(HG.shape)
         Qf_next = np.zeros((b, b))
-        if ok_inv:
+        if gauss_jordan_inverse(HG, A):  # (H Gamma)^{-1}
             qt = np.empty(m)
             for i in range(m):
                 cr = 0.0
@@ -193,12 +211,12 @@ def update(x_pred, P_pred, hx, H, y, R, U, Pf_pred, f, gamma2, k, adapt, Gam, Q,
                 q = 0.0
                 for j in range(m):
                     q += HGQ[i, j] * HG[i, j]
-                qt[i] = max(cr / nwin - q / dt - R[i, i], 0.0)
+                qt[i] = max(cr / nwin - q / dt - R[i, i], 0.0)  # eqs. 53, 58 (diagonal)
             for i in range(b):
                 acc = 0.0
                 for j in range(m):
                     acc += A[i, j] * A[i, j] * qt[j]
-                Qf_next[i, i] = acc * dt * dt
+                Qf_next[i, i] = acc * dt * dt  # eq. 57, main diagonal
     ok = np.all(np.isfinite(x_hat)) and np.all(np.isfinite(Px)) and np.all(np.isfinite(f_new))
     return (
         ok,

@@ -32,21 +32,21 @@ Notation problems in Atmaca2025 and what this module does (also in docs/papers-n
 * eq. 28 writes ``E{w' w}`` (a scalar); the covariance ``E{w w'}`` is meant.
 * eq. 24 is the short-form update; we use the Joseph form (equal for the optimal gain, stays PSD
   under round-off), likewise for eq. 34 with the bias-free innovation covariance as its "R".
+
+The step runs in the numba kernels of ``filters/_otsekf_jit.py``; the numpy reference that the
+equivalence test compares them with is ``tests/reference/otsekf.py``.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
-from gcs_monitor.core.optional import optional_module
+from gcs_monitor.core.kernels import load_kernels
 from gcs_monitor.core.types import Mat, Vec
-from gcs_monitor.filters.covariance import cho_factor_lower, cho_solve_lower, symmetrise
 
 MeasFn = Callable[[Vec], tuple[Vec, Mat]]
 
@@ -132,10 +132,6 @@ def otsekf_init(x0: Vec, P0: Mat, mu0: Vec, P_mu0: Mat) -> OtsekfState:
     )
 
 
-def _wrap(a: float) -> float:
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
-
-
 def otsekf_step(
     s: OtsekfState,
     pred: OtsekfPrediction,
@@ -145,7 +141,6 @@ def otsekf_step(
     *,
     gate_sigma: float,
     wrap_idx: tuple[int, ...] = (),
-    compiled: bool = True,
 ) -> tuple[OtsekfState, OtsekfInnovation]:
     """One predict/update of the optimal two-stage EKF (Atmaca2025 eqs. 20-42).
 
@@ -158,140 +153,13 @@ def otsekf_step(
     R : (m, m) measurement noise covariance (eq. 28)
     gate_sigma : innovation gate in standard deviations (for the test ratio only)
     wrap_idx : innovation components that are angles and are wrapped to (-pi, pi]
-    compiled : use the numba kernels (``filters/_otsekf_jit.py``, same equations) when numba is
-        installed; ``False`` runs the numpy reference below
 
     Returns
     -------
     new state and the innovation record. On a numerical failure the returned state is the input
     state (unchanged) and ``numerics_ok`` is False; the caller decides to reset.
     """
-    if compiled:
-        kern = _kernels()
-        if kern is not None:
-            return _step_compiled(kern, s, pred, meas_fn, y, R, gate_sigma, wrap_idx)
-    return _step_reference(s, pred, meas_fn, y, R, gate_sigma, wrap_idx)
-
-
-def _bad_innovation(m: int) -> OtsekfInnovation:
-    return OtsekfInnovation(
-        nu=np.full(m, np.nan),
-        S=np.full((m, m), np.nan),
-        test_ratio=np.full(m, np.nan),
-        rejected=np.zeros(m, dtype=bool),
-        numerics_ok=False,
-    )
-
-
-def _step_reference(
-    s: OtsekfState,
-    pred: OtsekfPrediction,
-    meas_fn: MeasFn,
-    y: Vec,
-    R: Mat,
-    gate_sigma: float,
-    wrap_idx: tuple[int, ...],
-) -> tuple[OtsekfState, OtsekfInnovation]:
-    """Plain numpy implementation, equation by equation (the reference for the kernels)."""
-    Phi, B, Qx, Qxmu, Qmu = pred.Phi, pred.B, pred.Qx, pred.Qxmu, pred.Qmu
-    # eqs. 30-31: bias random walk
-    mu_pred = s.mu
-    P_mu_pred = s.P_mu + Qmu
-    L_mu, ok_mu = cho_factor_lower(P_mu_pred)
-    m = y.shape[0]
-    bad = _bad_innovation(m)
-    if not ok_mu:
-        return s, bad
-    # eq. 37
-    U_bar = Phi @ s.V + B
-    # eq. 39: U = U_bar + (Q^{x mu} - U_bar Q^{mu}) (P^{mu}_{k|k-1})^{-1}; P^{mu} symmetric
-    W = Qxmu - U_bar @ Qmu
-    U = U_bar + cho_solve_lower(L_mu, W.T).T
-    # eqs. 35-36 (shifted one index, see module docstring)
-    u_bar = (U_bar - U) @ s.mu
-    Q_bar = Qx - Qxmu @ U_bar.T - U @ W.T
-    # eqs. 20, 22
-    x_bar_pred = pred.x_bar_prop + u_bar
-    P_bar_pred = symmetrise(Phi @ s.P_bar @ Phi.T + Q_bar)
-    # predicted augmented estimate, where h is linearised (module docstring)
-    x_hat_pred = x_bar_pred + U @ mu_pred
-    y_pred, H = meas_fn(x_hat_pred)
-    nu = y - y_pred
-    for i in wrap_idx:
-        nu[i] = _wrap(float(nu[i]))
-    S_k = H @ U  # eq. 38
-    nu_bar = nu + S_k @ mu_pred  # y - H x_bar_{k|k-1}
-    # eq. 23
-    PHt = P_bar_pred @ H.T
-    C_bar = symmetrise(H @ PHt + R)
-    L_bar, ok_bar = cho_factor_lower(C_bar)
-    if not ok_bar:
-        return s, bad
-    K_bar = cho_solve_lower(L_bar, PHt.T).T
-    # eqs. 21, 24 (Joseph form)
-    x_bar = x_bar_pred + K_bar @ nu_bar
-    A = np.eye(P_bar_pred.shape[0]) - K_bar @ H
-    P_bar = symmetrise(A @ P_bar_pred @ A.T + K_bar @ R @ K_bar.T)
-    # eq. 32 (with H P_bar H^T, module docstring)
-    PSt = P_mu_pred @ S_k.T
-    C = symmetrise(C_bar + S_k @ PSt)
-    L_c, ok_c = cho_factor_lower(C)
-    if not ok_c:
-        return s, bad
-    K_mu = cho_solve_lower(L_c, PSt.T).T
-    # eqs. 33, 34 (Joseph form with C_bar as the bias filter's measurement noise)
-    mu = mu_pred + K_mu @ nu
-    A_mu = np.eye(P_mu_pred.shape[0]) - K_mu @ S_k
-    P_mu = symmetrise(A_mu @ P_mu_pred @ A_mu.T + K_mu @ C_bar @ K_mu.T)
-    # eqs. 40-42
-    V = U - K_bar @ S_k
-    x_hat = x_bar + V @ mu
-    P = symmetrise(P_bar + V @ P_mu @ V.T)
-    diag_c = np.diag(C)
-    with np.errstate(over="ignore", invalid="ignore"):
-        test_ratio = nu * nu / (gate_sigma * gate_sigma * diag_c)
-    # an overflowing innovation is a numerical failure too, not a huge but valid test ratio
-    ok = bool(
-        np.all(np.isfinite(x_hat))
-        and np.all(np.isfinite(P))
-        and np.all(np.isfinite(mu))
-        and np.all(np.isfinite(test_ratio))
-    )
-    if not ok:
-        return s, bad
-    new = OtsekfState(x_bar=x_bar, P_bar=P_bar, mu=mu, P_mu=P_mu, V=V, x_hat=x_hat, P=P)
-    innov = OtsekfInnovation(
-        nu=nu, S=C, test_ratio=test_ratio, rejected=test_ratio > 1.0, numerics_ok=True
-    )
-    return new, innov
-
-
-_WRAP_MASKS: dict[tuple[int, tuple[int, ...]], NDArray[np.bool_]] = {}
-
-
-def _wrap_mask(m: int, wrap_idx: tuple[int, ...]) -> NDArray[np.bool_]:
-    """(m,) True at the wrapped components; built once per (m, wrap_idx), never written to."""
-    key = (m, wrap_idx)
-    mask = _WRAP_MASKS.get(key)
-    if mask is None:
-        mask = np.zeros(m, dtype=np.bool_)
-        for i in wrap_idx:
-            mask[i] = True
-        _WRAP_MASKS[key] = mask
-    return mask
-
-
-def _step_compiled(
-    kern: _Kernels,
-    s: OtsekfState,
-    pred: OtsekfPrediction,
-    meas_fn: MeasFn,
-    y: Vec,
-    R: Mat,
-    gate_sigma: float,
-    wrap_idx: tuple[int, ...],
-) -> tuple[OtsekfState, OtsekfInnovation]:
-    """The step through the numba kernels; same equations and order as the reference."""
+    kern = load_kernels("gcs_monitor.filters._otsekf_jit")
     n, b, m = s.x_bar.shape[0], s.mu.shape[0], y.shape[0]
     U = np.empty((n, b))
     x_bar_pred = np.empty(n)
@@ -321,18 +189,26 @@ def _step_compiled(
     return new, innov
 
 
-# ---------------------------------------------------------------------------------------------
-# Compiled kernels (numba, filters/_otsekf_jit.py), imported lazily so that importing this module
-# stays cheap. tests/gcs_monitor/filters/test_otsekf.py checks both paths agree.
-# ---------------------------------------------------------------------------------------------
+def _bad_innovation(m: int) -> OtsekfInnovation:
+    return OtsekfInnovation(
+        nu=np.full(m, np.nan),
+        S=np.full((m, m), np.nan),
+        test_ratio=np.full(m, np.nan),
+        rejected=np.zeros(m, dtype=bool),
+        numerics_ok=False,
+    )
 
 
-class _Kernels(Protocol):
-    def predict(self, *args: object) -> bool: ...
-
-    def update(self, *args: object) -> bool: ...
+_WRAP_MASKS: dict[tuple[int, tuple[int, ...]], NDArray[np.bool_]] = {}
 
 
-def _kernels() -> _Kernels | None:
-    """The numba kernels module, imported on first use (None if numba is not installed)."""
-    return optional_module("gcs_monitor.filters._otsekf_jit")
+def _wrap_mask(m: int, wrap_idx: tuple[int, ...]) -> NDArray[np.bool_]:
+    """(m,) True at the wrapped components; built once per (m, wrap_idx), never written to."""
+    key = (m, wrap_idx)
+    mask = _WRAP_MASKS.get(key)
+    if mask is None:
+        mask = np.zeros(m, dtype=np.bool_)
+        for i in wrap_idx:
+            mask[i] = True
+        _WRAP_MASKS[key] = mask
+    return mask

@@ -20,16 +20,18 @@ Taylor terms ``z_{j+2} dt^2 / 2 ...`` that the paper does not use.
 The paper gives no values for ``lambda_{0..3}`` ("trial and error"). Following Levant (2003) they
 are ``lambda_j = k_j L^{1/(n+1-j)}`` with Levant's coefficients ``k = (3, 2, 1.5, 1.1)`` for n = 3
 and ``L`` an upper bound of ``|f^{(4)}|``, one per channel.
+
+The step runs in the numba kernel of ``filters/_sliding_mode_jit.py``; the numpy reference that
+the equivalence test compares it with is ``tests/reference/sliding_mode.py``.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Protocol
 
 import numpy as np
 
-from gcs_monitor.core.optional import optional_module
+from gcs_monitor.core.kernels import load_kernels
 from gcs_monitor.core.types import Mat, Vec
 
 HOSM_ORDER = 3
@@ -67,9 +69,7 @@ def hosm_init(f0: Vec) -> HosmState:
     return HosmState(z=z)
 
 
-def hosm_step(
-    s: HosmState, f: Vec, lambdas: Mat, dt_s: float, *, compiled: bool = True
-) -> HosmState:
+def hosm_step(s: HosmState, f: Vec, lambdas: Mat, dt_s: float) -> HosmState:
     """One explicit-Euler step of the recursive third-order differentiator (eqs. 47-50).
 
     Parameters
@@ -78,39 +78,12 @@ def hosm_step(
     f : (nch,) sample of the differentiated signal at t_k (``mu_hat`` in the paper)
     lambdas : (4, nch) gains from :meth:`LevantGains.lambdas`
     dt_s : step (s)
-    compiled : use the numba kernel (``filters/_sliding_mode_jit.py``, same equations) when numba
-        is installed; ``False`` runs the numpy reference
 
     Returns
     -------
     state at t_{k+1}; ``z[1]`` is the derivative estimate (eq. 51)
     """
-    if compiled:
-        kern = _kernels()
-        if kern is not None:
-            z_next = np.empty_like(s.z)
-            kern.hosm_step(s.z, np.asarray(f, dtype=np.float64), lambdas, float(dt_s), z_next)
-            return HosmState(z=z_next)
-    return _hosm_step_reference(s, f, lambdas, dt_s)
-
-
-def _hosm_step_reference(s: HosmState, f: Vec, lambdas: Mat, dt_s: float) -> HosmState:
-    """Plain numpy implementation (the reference for the kernel)."""
-    z0, z1, z2, z3 = s.z
-    e0 = z0 - f
-    v0 = -lambdas[0] * np.abs(e0) ** 0.75 * np.sign(e0) + z1
-    e1 = z1 - v0
-    v1 = -lambdas[1] * np.abs(e1) ** (2.0 / 3.0) * np.sign(e1) + z2
-    e2 = z2 - v1
-    v2 = -lambdas[2] * np.sqrt(np.abs(e2)) * np.sign(e2) + z3
-    v3 = -lambdas[3] * np.sign(z3 - v2)
-    return HosmState(z=np.stack([z0 + v0 * dt_s, z1 + v1 * dt_s, z2 + v2 * dt_s, z3 + v3 * dt_s]))
-
-
-class _Kernels(Protocol):
-    def hosm_step(self, *args: object) -> None: ...
-
-
-def _kernels() -> _Kernels | None:
-    """The numba kernel module, imported on first use (None if numba is not installed)."""
-    return optional_module("gcs_monitor.filters._sliding_mode_jit")
+    kern = load_kernels("gcs_monitor.filters._sliding_mode_jit")
+    z_next = np.empty_like(s.z)
+    kern.hosm_step(s.z, np.asarray(f, dtype=np.float64), lambdas, float(dt_s), z_next)
+    return HosmState(z=z_next)

@@ -22,6 +22,28 @@ explained in docs/papers-notes.md):
    printed. Only the diagonal of C_r is needed because only diag(Q_hat) is used (eq. 58).
 5. The Q^f adaptation starts once the window holds N innovations; before, Q^f keeps its
    initial value.
+
+``Q^{xf}``, the state/fault noise cross covariance, is zero (Lu2016 sec. 3.1, after its
+ref. [30]).
+
+Where each step runs. After the first ``n_iterated_steps`` steps, a step with the built-in
+discretisation runs in the numba kernels of ``filters/_two_stage_jit.py`` (:func:`_step_compiled`;
+:class:`PackedTwoStage` for the estimator's hot path). The iterated first steps, and steps with a
+caller's discretiser, run :func:`_step_numpy`: the kernel does not iterate, because every
+iteration of eq. 37 evaluates the model's ``h`` and ``H`` at the new iterate, a Python model
+object. Both paths chain the same equation segments of the kernel module (``discretise``
+eqs. 33-34; ``coupling`` 41, 47, 49; ``prediction`` 32, 45-46; ``innovation_covariance`` 36;
+``joseph`` 39, 44; ``bias_terms`` 42-43, 48; ``blend`` 43-44, 50-52). Written twice, on purpose:
+
+* the Cholesky factorisations and solves of eqs. 36, 42 and 49 -- LAPACK ``potrf``/``potrs``
+  here (:mod:`gcs_monitor.filters.covariance`), ``filters/_linalg.py``'s loops in the kernel;
+* the ``Q^f`` adaptation of eqs. 53, 57-58 -- :func:`adapt_qf` (numpy sums, LU solve) here,
+  sequential sums and a Gauss-Jordan inverse in the kernel's ``update``.
+
+Each pair agrees to round-off, not bit for bit, and each side is pinned by the monitor's recorded
+replays (the first ten steps after every (re)start run here, all later ones in the kernel), so
+neither can take the other's form without changing the monitor's output. The iterated form of
+eq. 37 exists only here; the kernel has its non-iterated case ``eta_1 = x_bar_{k|k-1}``.
 """
 
 from __future__ import annotations
@@ -31,6 +53,7 @@ from typing import Protocol
 
 import numpy as np
 
+from gcs_monitor.core.kernels import load_kernels
 from gcs_monitor.core.types import Mat, Vec
 from gcs_monitor.filters.covariance import (
     all_finite,
@@ -38,9 +61,7 @@ from gcs_monitor.filters.covariance import (
     cho_solve_lower,
     eye,
     gain,
-    joseph_update,
     solve_general,
-    symmetrise,
 )
 from gcs_monitor.filters.ekf import Innovation, make_innovation
 
@@ -70,15 +91,13 @@ def discretise_series(F: Mat, G: Mat, dt_s: float) -> tuple[Mat, Mat]:
 
     Lu2016 eqs. 33-34, series truncated after ``(F dt)^3 / 3!``: |F dt| ~ 1e-2 at 100 Hz, so
     the first neglected term is ~1e-9 relative. Eq. 34 prints ``Gamma = int Phi G dt``; the
-    integrand is ``exp(F s)`` (s from 0 to dt), not the constant ``Phi`` -- we use the former.
+    integrand is ``exp(F s)`` (s from 0 to dt), not the constant ``Phi`` -- we use the former:
+    ``Gamma = (sum_k (F dt)^k / (k+1)!) dt G``. Computed by the kernel ``discretise``
+    (``filters/_two_stage_jit.py``), the one both paths of the filter use.
     """
-    A = F * dt_s
-    A2 = A @ A
-    A3 = A2 @ A
-    eye_n = eye(F.shape[0])
-    phi = eye_n + A + A2 * (1.0 / 2.0) + A3 * (1.0 / 6.0)
-    psi = eye_n + A * (1.0 / 2.0) + A2 * (1.0 / 6.0) + A3 * (1.0 / 24.0)  # sum A^k / (k+1)!
-    return phi, (psi * dt_s) @ G
+    kern = load_kernels("gcs_monitor.filters._two_stage_jit")
+    phi, gam = kern.discretise(F, G, float(dt_s))
+    return phi, gam
 
 
 @dataclass(frozen=True, slots=True)
@@ -89,13 +108,12 @@ class TwoStageNoise:
     ----------
     Q : (b, b) input (IMU) noise covariance, Lu2016 eq. 56
     R : (m, m) measurement noise covariance, Lu2016 eq. 55
-    Qxf : (n, b) state/fault noise cross covariance; None means zero (Lu2016 sec. 3.1, after
-        its ref. [30])
+
+    The state/fault cross covariance ``Q^{xf}`` is zero (module docstring).
     """
 
     Q: Mat
     R: Mat
-    Qxf: Mat | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -110,8 +128,6 @@ class TwoStageConfig:
     adapt : True = ATSEKF (covariance matching of Q^f, eqs. 53-58); False = IOTSEKF
     window_n : moving-window size N of eq. 53 (Lu2016: 10)
     gate_sigma : gate of the normalised innovation test ratio (reporting only)
-    compiled : use the numba kernels (:func:`_kernels`) for the non-iterated steps when numba
-        is installed; same equations as the numpy reference path, a few times faster
     """
 
     eps0: float = 1.0e-8
@@ -120,7 +136,6 @@ class TwoStageConfig:
     adapt: bool = True
     window_n: int = 10
     gate_sigma: float = 3.0
-    compiled: bool = True
 
 
 @dataclass(frozen=True, slots=True)
@@ -194,7 +209,7 @@ def two_stage_step(
     u_prev, u_now : (b,) measured inputs u_m at t_{k-1} and t_k
     y : (m,) measurement at t_k
     dt_s : t_k - t_{k-1} (s)
-    noise : Q, R, Q^{xf}
+    noise : Q, R
     cfg : algorithm settings
     discretise : (F, G, dt) -> (Phi, Gamma); None = :func:`discretise_series` (eqs. 33-34)
 
@@ -203,17 +218,12 @@ def two_stage_step(
     The state at k and the innovation record of the bias-filter innovation (eq. 43) with the
     full innovation covariance ``H P_bar H^T + R + S P^f S^T``. On a numerical failure the
     input state is returned unchanged with ``numerics_ok = False``; the caller resets.
+    The step runs in the numba kernels once the iterations are over, in :func:`_step_numpy`
+    before, or with a caller's ``discretise`` (module docstring).
     """
-    iterate = s.k < cfg.n_iterated_steps
-    if (
-        cfg.compiled
-        and discretise is None
-        and noise.Qxf is None
-        and not iterate
-        and _kernels() is not None
-    ):
+    if discretise is None and s.k >= cfg.n_iterated_steps:
         return _step_compiled(s, model, u_prev, u_now, y, dt_s, noise, cfg)
-    return _step_reference(
+    return _step_numpy(
         s, model, u_prev, u_now, y, dt_s, noise, cfg, discretise or discretise_series
     )
 
@@ -228,9 +238,8 @@ def _step_compiled(
     noise: TwoStageNoise,
     cfg: TwoStageConfig,
 ) -> tuple[TwoStageState, Innovation]:
-    """The non-iterated step through the numba kernels; same equations as the reference."""
-    _jit = _kernels()
-    assert _jit is not None
+    """The non-iterated step through the numba kernels (``predict``, ``update``)."""
+    _jit = load_kernels("gcs_monitor.filters._two_stage_jit")
     F, G = model.jacobians(s.x, u_prev - s.f)  # Lu2016 note 1
     xb_prop = model.propagate(s.x_bar, u_prev, u_now, dt_s)  # eq. 31 without ubar
     ok, Gam, U, ubar, P_pred, Pf_pred = _jit.predict(
@@ -282,7 +291,7 @@ def _step_compiled(
     )
 
 
-def _step_reference(
+def _step_numpy(
     s: TwoStageState,
     model: TwoStageModel,
     u_prev: Vec,
@@ -293,28 +302,24 @@ def _step_reference(
     cfg: TwoStageConfig,
     discretise: Discretiser,
 ) -> tuple[TwoStageState, Innovation]:
-    """Plain numpy implementation, equation by equation (the reference for the kernels)."""
+    """The step with LAPACK's solves, iterated in the first steps (module docstring).
+
+    The kernel's equation segments between its own factorisations, the iteration of eq. 37
+    and the adaptation :func:`adapt_qf` (eqs. 53-58).
+    """
+    kern = load_kernels("gcs_monitor.filters._two_stage_jit")
     f_hat = s.f
     # Lu2016 note 1: linearise at the blended estimate with the corrected input
     F, G = model.jacobians(s.x, u_prev - f_hat)
-    Phi, Gam = discretise(F, G, dt_s)
-    Qf = s.Qf
-    Ubar = Phi @ s.V + Gam  # eq. 47
-    Pf_pred = s.Pf + Qf  # eq. 41
+    Phi, Gam = discretise(F, G, dt_s)  # eqs. 33-34
+    Ubar, Pf_pred, W = kern.coupling(Phi, Gam, s.V, s.Pf, s.Qf)  # eqs. 47, 41
     Lf, ok = cho_factor_lower(Pf_pred)
     m = y.size
     if not ok:
         return _fail(s, np.full(m, np.nan), np.full((m, m), np.nan), cfg.gate_sigma)
-    # eq. 49: U = Ubar + (Qxf - Ubar Qf) Pf_pred^{-1}
-    W = -(Ubar @ Qf) if noise.Qxf is None else noise.Qxf - Ubar @ Qf
-    U = Ubar + cho_solve_lower(Lf, W.T).T
-    GQG = Gam @ noise.Q @ Gam.T
-    Qbar = GQG - U @ W.T  # eq. 46 with W = Qxf - Ubar Qf
-    if noise.Qxf is not None:
-        Qbar = Qbar - noise.Qxf @ Ubar.T
-    ubar = (Ubar - U) @ f_hat  # eq. 45
+    U = Ubar + cho_solve_lower(Lf, W.T).T  # eq. 49: U = Ubar + (Qxf - Ubar Qf) Pf_pred^{-1}
+    ubar, P_pred = kern.prediction(Phi, Gam, noise.Q, s.P_bar, Ubar, U, W, f_hat)  # 45-46, 32
     x_pred = model.propagate(s.x_bar, u_prev, u_now, dt_s) + ubar  # eq. 31
-    P_pred = symmetrise(Phi @ s.P_bar @ Phi.T + Qbar)  # eq. 32
 
     # bias-free measurement update, iterated in the first steps (eqs. 35-38)
     R = noise.R
@@ -324,8 +329,7 @@ def _step_reference(
     H = model.h_jac(eta1)
     iterate = s.k < cfg.n_iterated_steps
     for _it in range(cfg.max_iterations if iterate else 1):
-        PHt = P_pred @ H.T
-        Sx = H @ PHt + R
+        PHt, Sx = kern.innovation_covariance(P_pred, H, R)
         K, ok = gain(PHt, Sx)  # eq. 36
         if not ok:
             return _fail(s, y - hx_pred, Sx, cfg.gate_sigma)
@@ -340,28 +344,23 @@ def _step_reference(
         hx = model.h(eta1)
         H = model.h_jac(eta1)
     x_bar = eta2  # eq. 38
-    P_bar = joseph_update(P_pred, K, H, R)  # eq. 39
+    P_bar = kern.joseph(P_pred, K, H, R)  # eq. 39
 
     # bias filter (eqs. 40-44)
-    S = H @ U  # eq. 48
-    PfSt = Pf_pred @ S.T
-    Sig = Sx + S @ PfSt
+    S, PfSt, Sig, gamma = kern.bias_terms(H, U, Pf_pred, Sx, y, hx_pred, f_hat)  # 48, 42, 43
     Kf, ok = gain(PfSt, Sig)  # eq. 42
-    gamma = y - hx_pred - S @ f_hat  # eq. 43 innovation (= gamma of eq. 54, Lu2016 note 3)
+    # gamma: eq. 43 innovation (= gamma of eq. 54, Lu2016 note 3)
     innov = make_innovation(gamma, Sig, cfg.gate_sigma, ok)
     if not innov.numerics_ok:
         return s, innov
-    f_new = f_hat + Kf @ gamma  # eq. 43
-    Pf_new = joseph_update(Pf_pred, Kf, S, Sx)  # eq. 44 in Joseph form (R_eff = Sx)
-    V = U - K @ S  # eq. 50
-    x_hat = x_bar + V @ f_new  # eq. 51
-    Px = P_bar + V @ Pf_new @ V.T  # eq. 52
+    # eqs. 43-44 (Joseph form, R_eff = Sx) and the blend, eqs. 50-52
+    f_new, Pf_new, V, x_hat, Px = kern.blend(U, K, S, x_bar, P_bar, f_hat, Kf, gamma, Pf_pred, Sx)
 
     gamma2 = s.gamma2.copy()
     nwin = gamma2.shape[0]
     gamma2[s.k % nwin] = gamma * gamma
     k = s.k + 1
-    Qf_next = Qf
+    Qf_next = s.Qf
     if cfg.adapt and k >= nwin:
         Qf_next = adapt_qf(gamma2, H, Gam, noise.Q, R, dt_s)
     if not (all_finite(x_hat) and all_finite(Px) and all_finite(f_new)):
@@ -397,6 +396,9 @@ def adapt_qf(gamma2: Mat, H: Mat, Gam: Mat, Q: Mat, R: Mat, dt_s: float) -> Mat:
     Gam : (n, b) discrete fault/noise input matrix, square here
     Q, R : input and measurement noise covariances
     dt_s : sample interval (s)
+
+    The numpy path's form of these equations; the kernel's ``update`` computes them with
+    sequential sums and a Gauss-Jordan inverse (module docstring: why both stay).
     """
     Cr = gamma2.sum(axis=0) / gamma2.shape[0]
     HG = H @ Gam
@@ -406,35 +408,6 @@ def adapt_qf(gamma2: Mat, H: Mat, Gam: Mat, Q: Mat, R: Mat, dt_s: float) -> Mat:
     if not ok:
         return np.zeros((Gam.shape[1], Gam.shape[1]))
     return np.diag((A * A) @ q_tilde * (dt_s * dt_s))  # eq. 57, main diagonal
-
-
-# ---------------------------------------------------------------------------------------------
-# Compiled kernels (numba, filters/_two_stage_jit.py), imported lazily so that importing this
-# module stays cheap.
-# They implement exactly the equations of _step_reference for Q^{xf} = 0 and the built-in
-# series discretisation; tests/gcs_monitor/filters/test_two_stage.py checks both paths agree.
-# ---------------------------------------------------------------------------------------------
-
-
-class _Kernels(Protocol):
-    def predict(self, *args: object) -> tuple: ...  # type: ignore[type-arg]
-
-    def update(self, *args: object) -> tuple: ...  # type: ignore[type-arg]
-
-
-_KERNELS: list[object] = []  # [] = not tried yet, [None] = numba unavailable, [ns] = built
-
-
-def _kernels() -> _Kernels | None:
-    """The numba kernels module, imported on first use (None if numba is not installed)."""
-    if not _KERNELS:
-        try:
-            from gcs_monitor.filters import _two_stage_jit
-        except ImportError:  # pragma: no cover - numba missing
-            _KERNELS.append(None)
-        else:
-            _KERNELS.append(_two_stage_jit)
-    return _KERNELS[0]  # type: ignore[return-value]
 
 
 class PackedTwoStage:
@@ -454,11 +427,7 @@ class PackedTwoStage:
         sizes = (n, n * n, b, b * b, n * b, b * b, n, n * n, window_n * m)
         self.size = sum(sizes)
         self._last: tuple[TwoStageState | None, np.ndarray] = (None, np.empty(0))
-
-    @staticmethod
-    def available() -> bool:
-        """True when the numba kernels can be imported."""
-        return _kernels() is not None
+        self._kern = load_kernels("gcs_monitor.filters._two_stage_jit")
 
     def pack(self, s: TwoStageState) -> np.ndarray:
         """The packed buffer of ``s`` (x_bar, P_bar, f, Pf, V, Qf, x, Px, gamma2 flattened)."""
@@ -492,15 +461,14 @@ class PackedTwoStage:
         F, G : (n, n), (n, b) model Jacobians at ``(s.x, u_prev - s.f)`` (Lu2016 note 1)
         xb_prop : (n,) ``model.propagate(s.x_bar, u_prev, u_now, dt_s)`` (eq. 31 without ubar)
         """
-        kern = _kernels()
-        assert kern is not None and noise.Qxf is None and s.k >= cfg.n_iterated_steps
+        assert s.k >= cfg.n_iterated_steps
         last, buf = self._last
         if last is not s:
             buf = self.pack(s)
         new_buf = np.empty(self.size)
         m = self.m
         out = np.empty(3 * m)
-        code = kern.step_identity_output(  # type: ignore[attr-defined]
+        code = self._kern.step_identity_output(
             buf, s.k, new_buf, F, G, xb_prop, y, noise.Q, noise.R, cfg.adapt, dt_s,
             cfg.gate_sigma, self.window_n, out)
         if code == 1:  # prediction failed (P^f not PD): as _step_compiled

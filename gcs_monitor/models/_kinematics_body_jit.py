@@ -1,10 +1,11 @@
-"""Numba versions of the body-frame GS model (Atmaca2025 eqs. 9-19, 25-27, 51).
+"""The body-frame GS model in numba (Atmaca2025 eqs. 9-19, 25-27, 51): its one implementation.
 
-The same equations as ``kinematics_body.py`` (the reference, checked against finite
-differences) written for numba; imported lazily by ``kinematics_body.compiled_kernels`` and
-cached on disk. Every function writes into arrays the caller passes in. No function here calls a
-function of another module, so numba's per-file cache invalidation is sufficient.
-tests/gcs_monitor/models/test_kinematics_body.py checks both versions agree.
+``kinematics_body``'s model functions wrap these kernels; the estimator's hot path
+(``estimators/imu_hosm.py``) calls them directly, :func:`prediction` included. The plain-float
+reference of the equivalence test is ``tests/reference/kinematics_body.py``;
+tests/gcs_monitor/models/test_kinematics_body.py also checks the Jacobians against central
+differences. Every function writes into arrays the caller passes in. Loaded through
+``gcs_monitor.core.kernels``.
 """
 # ruff: noqa: N803, N806
 # mypy: disable-error-code="no-untyped-def"
@@ -21,7 +22,8 @@ jit = numba.njit(cache=True, fastmath=False, nogil=True)
 
 @jit
 def derivative(x, u_m, f_hat, g, out):
-    """Eqs. 9-14 into ``out`` (6,); see ``kinematics_body.body_gs_derivative``."""
+    """Eqs. 9-14 into ``out`` (6,): the approximate model, ``f_hat`` subtracted only in the
+    cross terms (``kinematics_body`` module docstring)."""
     u, v, w, phi, theta = x[0], x[1], x[2], x[3], x[4]
     pm, qm, rm = u_m[3], u_m[4], u_m[5]
     pe = pm - f_hat[3]
@@ -40,7 +42,7 @@ def derivative(x, u_m, f_hat, g, out):
 
 @jit
 def jac_x(x, u_m, f_hat, g, F):
-    """F = df/dx into ``F`` (6, 6); see ``kinematics_body.body_gs_jac_x``."""
+    """F = df/dx of eqs. 9-14 (eq. 26) into ``F`` (6, 6)."""
     phi, theta = x[3], x[4]
     pm, qm, rm = u_m[3], u_m[4], u_m[5]
     pe = pm - f_hat[3]
@@ -73,7 +75,8 @@ def jac_x(x, u_m, f_hat, g, F):
 
 @jit
 def noise_matrix(x, G):
-    """G = -df/du_m into ``G`` (6, 6); see ``kinematics_body.body_gs_noise_matrix``."""
+    """G = -df/du_m (eq. 15, with ``G[0, 4] = +w``: ``kinematics_body.body_gs_noise_matrix``)
+    into ``G`` (6, 6)."""
     u, v, w, phi, theta = x[0], x[1], x[2], x[3], x[4]
     sph, cph = math.sin(phi), math.cos(phi)
     sth, cth = math.sin(theta), math.cos(theta)
@@ -236,7 +239,7 @@ def prediction(
 
 @jit
 def fault_from_drift_rate(r, x, out):
-    """``A(x)^{-1} r`` into ``out`` (6,); see ``kinematics_body.fault_from_drift_rate``."""
+    """``A(x)^{-1} r`` in closed form (``kinematics_body.fault_from_drift_rate``) into ``out``."""
     u, v, w, phi, theta = x[0], x[1], x[2], x[3], x[4]
     sph, cph = math.sin(phi), math.cos(phi)
     sth, cth = math.sin(theta), math.cos(theta)

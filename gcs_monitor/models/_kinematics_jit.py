@@ -1,11 +1,11 @@
-"""Numba version of the GS-KM (Lu2016 eqs. 11-13) for the compiled ATSEKF step.
+"""The GS-KM (Lu2016 eqs. 11-13) in numba: the one implementation of the model.
 
-The same expressions, in the same order, as the plain-float bodies in ``kinematics.py`` (the
-reference, checked against finite differences there), so both give the same numbers; imported
-lazily by ``kinematics.compiled_gs_km`` and cached on disk by numba. Every function writes into
-arrays the caller passes in. No function here calls a function of another module, so numba's
-per-file cache invalidation is sufficient. tests/gcs_monitor/models/test_kinematics.py checks
-both versions agree.
+``kinematics.gs_km_f``, the Jacobian functions and ``kinematics.GsKm`` wrap these kernels; the
+ATSEKF hot path (``estimators/imu_ts.py``) calls them directly. The plain-float reference of
+the equivalence test (bit for bit: same expressions, same order) is
+``tests/reference/kinematics.py``; tests/gcs_monitor/models/test_kinematics.py also checks the
+Jacobians against central differences and the kinematics against the DCM. Every function
+writes into arrays the caller passes in. Loaded through ``gcs_monitor.core.kernels``.
 """
 # ruff: noqa: N803, N806
 # mypy: disable-error-code="no-untyped-def"
@@ -18,6 +18,9 @@ import numba
 
 from gcs_monitor.core import constants as c
 
+# the earth constants below are compiled in as constants: see gcs_monitor.core.kernels
+KERNEL_DEPENDENCIES = {"gcs_monitor.core.constants": "0b300fc9f27503d8"}
+
 jit = numba.njit(cache=True, fastmath=False, nogil=True)
 
 EARTH_RADIUS_M = c.EARTH_RADIUS_M
@@ -26,7 +29,8 @@ EARTH_RATE_RADPS = c.EARTH_RATE_RADPS
 
 @jit
 def rates(x, u, lat_rad, alt_m, g_mps2, out):
-    """Lu2016 eq. 11 into ``out`` (6,); see ``kinematics._gs_km_rates``."""
+    """Lu2016 eq. 11 (psi row with the corrected sign, ``kinematics`` module docstring) into
+    ``out`` (6,), gravity ``g_mps2`` of eq. 12 given."""
     un, ue, ud, phi, th, psi = x[0], x[1], x[2], x[3], x[4], x[5]
     ax, ay, az, p, q, r = u[0], u[1], u[2], u[3], u[4], u[5]
     sph, cph = math.sin(phi), math.cos(phi)
@@ -54,7 +58,8 @@ def rates(x, u, lat_rad, alt_m, g_mps2, out):
 
 @jit
 def propagate(x, u0, u1, lat_rad, alt_m, g_mps2, dt_s, out):
-    """Heun step of eq. 11, input linear between samples; see ``kinematics.GsKm.propagate``."""
+    """``x + int f(x, u) dt`` over ``dt_s`` (Lu2016 eq. 31) by Heun's method, the input linear
+    from ``u0`` to ``u1``, into ``out`` (6,)."""
     k1 = x.copy()
     rates(x, u0, lat_rad, alt_m, g_mps2, k1)
     xe = x.copy()
@@ -68,11 +73,37 @@ def propagate(x, u0, u1, lat_rad, alt_m, g_mps2, dt_s, out):
 
 
 @jit
-def jacobians(x, u, lat_rad, alt_m, F, G):
-    """F = df/dx and G = df/df^i = -df/du (eqs. 13, 34) into ``F``, ``G`` (6, 6).
+def input_matrix(x, G):
+    """``G = df/df^i = -df/du`` (Lu2016 eq. 13) into ``G`` (6, 6): the specific-force rows are
+    ``-C_ned_frd``, the rate rows ``-E(phi, theta)`` (body rates to Euler rates)."""
+    phi, th, psi = x[3], x[4], x[5]
+    sph, cph = math.sin(phi), math.cos(phi)
+    sth, cth = math.sin(th), math.cos(th)
+    sps, cps = math.sin(psi), math.cos(psi)
+    for i in range(6):
+        for j in range(6):
+            G[i, j] = -0.0
+    G[0, 0] = -(cth * cps)
+    G[0, 1] = -(sph * sth * cps - cph * sps)
+    G[0, 2] = -(cph * sth * cps + sph * sps)
+    G[1, 0] = -(cth * sps)
+    G[1, 1] = -(sph * sth * sps + cph * cps)
+    G[1, 2] = -(cph * sth * sps - sph * cps)
+    G[2, 0] = sth
+    G[2, 1] = -(sph * cth)
+    G[2, 2] = -(cph * cth)
+    G[3, 3] = -1.0
+    G[3, 4] = -(sph * sth / cth)
+    G[3, 5] = -(cph * sth / cth)
+    G[4, 4] = -cph
+    G[4, 5] = sph
+    G[5, 4] = -(sph / cth)
+    G[5, 5] = -(cph / cth)
 
-    See ``kinematics._gs_km_jac_x_rows`` and ``kinematics._gs_km_jac_u_rows``.
-    """
+
+@jit
+def jacobians(x, u, lat_rad, alt_m, F, G):
+    """F = df/dx and G = df/df^i = -df/du (eqs. 13, 34) into ``F``, ``G`` (6, 6)."""
     un, ue, ud, phi, th, psi = x[0], x[1], x[2], x[3], x[4], x[5]
     ax, ay, az, q, r = u[0], u[1], u[2], u[4], u[5]  # p does not enter F or G
     sph, cph = math.sin(phi), math.cos(phi)
@@ -138,23 +169,4 @@ def jacobians(x, u, lat_rad, alt_m, F, G):
     F[5, 3] = qcr / cth
     F[5, 4] = (qsr * sth + hor) / c2
     F[5, 5] = dhor_dpsi * tth
-    # G = -df/du: the specific-force rows are -C_ned_frd, the rate rows -E(phi, theta)
-    for i in range(6):
-        for j in range(6):
-            G[i, j] = -0.0
-    G[0, 0] = -(cth * cps)
-    G[0, 1] = -(sph * sth * cps - cph * sps)
-    G[0, 2] = -(cph * sth * cps + sph * sps)
-    G[1, 0] = -(cth * sps)
-    G[1, 1] = -(sph * sth * sps + cph * cps)
-    G[1, 2] = -(cph * sth * sps - sph * cps)
-    G[2, 0] = sth
-    G[2, 1] = -(sph * cth)
-    G[2, 2] = -(cph * cth)
-    G[3, 3] = -1.0
-    G[3, 4] = -(sph * sth / cth)
-    G[3, 5] = -(cph * sth / cth)
-    G[4, 4] = -cph
-    G[4, 5] = sph
-    G[5, 4] = -(sph / cth)
-    G[5, 5] = -(cph / cth)
+    input_matrix(x, G)

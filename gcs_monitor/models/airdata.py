@@ -18,19 +18,25 @@ Sign conventions (chosen to be physically consistent, see docs/papers-notes.md "
 
 ``V_g`` appears both as a state and as a measured parameter (Wan2018 Remark 1): the state
 dynamics and the V_z / V_c outputs use the measured ``Theta[0]``, so ``a_12 = c_22 = 0``.
+
+The outputs, the Jacobians and the CAS relation run in the numba kernels of
+``models/_airdata_jit.py`` (the functions below wrap them), which the MHE's compiled
+linearisation over the horizon (``AirDataModel.linearise_horizon``) calls too. The transition
+:func:`airdata_f` is plain Python; the kernel's horizon defects carry their own form of it,
+with the eq. 8 term rounded differently (module docstring there: why both stay). The reference
+of the equivalence test is ``tests/reference/airdata.py``.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Protocol, cast
 
 import numpy as np
 
 from gcs_monitor.core import constants as c
 from gcs_monitor.core.atmosphere import tas_from_cas
-from gcs_monitor.core.optional import optional_module
+from gcs_monitor.core.kernels import load_kernels
 from gcs_monitor.core.params import param
 from gcs_monitor.core.types import Mat, Vec
 
@@ -65,22 +71,12 @@ def lateral(theta_p: Vec) -> tuple[float, float]:
     return 0.0, 0.0
 
 
-def _gravity_terms(alpha: float, theta: float, phi: float) -> tuple[float, float, float, float]:
-    """(g_alpha, g_v, d g_alpha / d alpha, d g_v / d alpha) per unit g (see :func:`lateral`)."""
+def _gravity_terms(alpha: float, theta: float, phi: float) -> tuple[float, float]:
+    """(g_alpha, g_v) per unit g (see :func:`lateral`): ``cos(alpha - theta)`` and
+    ``sin(alpha - theta)`` at phi = 0."""
     sa, ca = math.sin(alpha), math.cos(alpha)
     st, ct, cp = math.sin(theta), math.cos(theta), math.cos(phi)
-    return (ca * ct * cp + sa * st, sa * ct * cp - ca * st,
-            -sa * ct * cp + ca * st, ca * ct * cp + sa * st)
-
-
-def _sin_gamma(alpha: float, theta: float, phi: float, beta: float) -> tuple[float, float]:
-    """(sin gamma_air, d / d alpha) of the exact flight-path relation (see :func:`lateral`)."""
-    sa, ca = math.sin(alpha), math.cos(alpha)
-    st, ct = math.sin(theta), math.cos(theta)
-    sp, cp = math.sin(phi), math.cos(phi)
-    sb, cb = math.sin(beta), math.cos(beta)
-    return (ca * cb * st - (sp * sb + cp * sa * cb) * ct,
-            -sa * cb * st - cp * ca * cb * ct)
+    return ca * ct * cp + sa * st, sa * ct * cp - ca * st
 
 # Wan2018 eq. 16: 5 gamma R, the factor of T and T0 in the pitot-static relation.
 _K_CAS = 5.0 * c.ISA_GAMMA * c.ISA_R_JPKGK
@@ -111,37 +107,16 @@ class AirDataModelParams:
     wind_accel_in_alpha: bool = True
 
 
-def isa_temp_pbar(alt_m: float) -> tuple[float, float]:
-    """ISA temperature (K) and static pressure ratio p/p0 at pressure altitude (Wan2018 eq. 16)."""
-    t_k = c.ISA_T0_K + c.ISA_LAPSE_KPM * alt_m
-    p_bar = (1.0 + c.ISA_LAPSE_KPM * alt_m / c.ISA_T0_K) ** _GAS_EXP
-    return t_k, p_bar
-
-
 def cas_from_tas_with_derivative(tas_mps: float, alt_m: float) -> tuple[float, float]:
     """Calibrated airspeed and dV_c/dV_t (Wan2018 eq. 16), ISA temperature at ``alt_m``.
 
     Same formula as :func:`gcs_monitor.core.atmosphere.cas_from_tas`, with its analytic
-    derivative for the output Jacobian (row 4 of C, Wan2018 eq. 23).
+    derivative for the output Jacobian (row 4 of C, Wan2018 eq. 23). The kernel
+    ``models/_airdata_jit.cas_and_derivative`` computes it.
     """
-    t_k, p_bar = isa_temp_pbar(alt_m)
-    a = 1.0 + tas_mps * tas_mps / (_K_CAS * t_k)
-    a25 = a**2.5
-    big_y = (a25 * a - 1.0) * p_bar + 1.0
-    y_root = big_y ** (1.0 / _EXP_ISENTROPIC)
-    rho = math.sqrt(max(y_root - 1.0, 0.0))
-    cas = _SQRT_K_T0 * rho
-    if rho <= 0.0:
-        return cas, 0.0
-    # d/dVt of sqrt(Y^(1/3.5) - 1) = Y^(1/3.5 - 1) * p_bar * a^2.5 * 2 Vt / (k T) / (2 rho)
-    dy_root = (y_root / big_y) * p_bar * a25 * 2.0 * tas_mps / (_K_CAS * t_k)
-    return cas, _SQRT_K_T0 * dy_root / (2.0 * rho)
-
-
-def tas_approx(x: Vec, theta_p: Vec) -> float:
-    """True airspeed from the wind triangle with V_g >> wind (Wan2018 eq. 11)."""
-    d = x[IX_AOA] - theta_p[IT_THETA]
-    return cast(float, theta_p[IT_VG] - x[IX_WX] * math.cos(d) - x[IX_WZ] * math.sin(d))
+    kern = load_kernels("gcs_monitor.models._airdata_jit")
+    cas, dcas = kern.cas_and_derivative(float(tas_mps), float(alt_m), _JIT_CONSTS)
+    return float(cas), float(dcas)
 
 
 def airdata_derivative(x: Vec, theta_p: Vec, p: AirDataModelParams) -> Vec:
@@ -166,7 +141,7 @@ def airdata_derivative(x: Vec, theta_p: Vec, p: AirDataModelParams) -> Vec:
         theta_p[IT_AZ],
     )
     sa, ca = math.sin(alpha), math.cos(alpha)
-    g_a, g_v, _, _ = _gravity_terms(alpha, theta, lateral(theta_p)[0])
+    g_a, g_v = _gravity_terms(alpha, theta, lateral(theta_p)[0])
     f_alpha = -ax * sa + az * ca + p.g_mps2 * g_a  # g cos(alpha - theta) at phi = 0
     f_v = ax * ca + az * sa + p.g_mps2 * g_v  # g sin(alpha - theta) at phi = 0
     return np.array([f_alpha / vg + q, f_v, 0.0, 0.0])
@@ -190,19 +165,13 @@ def airdata_f(x: Vec, u: Vec, theta_p: Vec, dt_s: float, p: AirDataModelParams) 
 def airdata_f_jac_x(
     x: Vec, theta_p: Vec, dt_s: float, p: AirDataModelParams, u: Vec | None = None
 ) -> Mat:
-    """A_k = dF/dx of :func:`airdata_f` (Wan2018 eq. 23 with a_12 = 0, Remark 1)."""
-    alpha = x[IX_AOA]
-    vg, theta, ax, az = theta_p[IT_VG], theta_p[IT_THETA], theta_p[IT_AX], theta_p[IT_AZ]
-    sa, ca = math.sin(alpha), math.cos(alpha)
-    _, _, dg_a, dg_v = _gravity_terms(alpha, theta, lateral(theta_p)[0])
-    d_falpha = -ax * ca - az * sa + p.g_mps2 * dg_a
-    d_fv = -ax * sa + az * ca + p.g_mps2 * dg_v
-    a = np.eye(N_X)
-    a[IX_AOA, IX_AOA] += dt_s * d_falpha / vg
-    a[IX_VG, IX_AOA] = dt_s * d_fv
-    if p.wind_accel_in_alpha and u is not None:
-        d = alpha - theta
-        a[IX_AOA, IX_AOA] += dt_s * (u[IX_WX] * math.cos(d) + u[IX_WZ] * math.sin(d)) / vg
+    """A_k = dF/dx of :func:`airdata_f` (Wan2018 eq. 23 with a_12 = 0, Remark 1); with the
+    eq. 8 term's entry when ``p.wind_accel_in_alpha`` and ``u`` is given."""
+    a = np.empty((N_X, N_X))
+    k_wacc = 1.0 if p.wind_accel_in_alpha and u is not None else 0.0
+    load_kernels("gcs_monitor.models._airdata_jit").transition_jacobian(
+        _f64(x), _f64(np.zeros(N_U) if u is None else u), _f64(theta_p), float(dt_s),
+        float(p.g_mps2), k_wacc, a)
     return a
 
 
@@ -212,11 +181,12 @@ def airdata_f_jac_u(
 ) -> Mat:
     """B_k = dF/du = t_s I (Wan2018 eq. 20), plus the u_w column entries of the eq. 8 term in
     the alpha row when ``p.wind_accel_in_alpha`` (``x``, ``theta_p`` and ``p`` given)."""
-    b = dt_s * np.eye(N_X)
-    if p is not None and p.wind_accel_in_alpha and x is not None and theta_p is not None:
-        d = x[IX_AOA] - theta_p[IT_THETA]
-        b[IX_AOA, IX_WX] = dt_s * math.sin(d) / theta_p[IT_VG]
-        b[IX_AOA, IX_WZ] = -dt_s * math.cos(d) / theta_p[IT_VG]
+    b = np.empty((N_X, N_U))
+    wacc = p is not None and p.wind_accel_in_alpha and x is not None and theta_p is not None
+    load_kernels("gcs_monitor.models._airdata_jit").input_matrix(
+        _f64(np.zeros(N_X) if x is None else x),
+        _f64(np.zeros(N_THETA) if theta_p is None else theta_p), float(dt_s),
+        1.0 if wacc else 0.0, b)
     return b
 
 
@@ -225,28 +195,23 @@ def airdata_h(x: Vec, theta_p: Vec) -> Vec:
 
     V_z is positive up and W_z positive down, see the module docstring.
     """
-    sg, _ = _sin_gamma(x[IX_AOA], theta_p[IT_THETA], *lateral(theta_p))
-    vz_up = theta_p[IT_VG] * sg - x[IX_WZ]  # -V_g sin(alpha - theta) - W_z at phi = beta = 0
-    cas, _ = cas_from_tas_with_derivative(tas_approx(x, theta_p), theta_p[IT_Z])
-    return np.array([x[IX_VG], vz_up, x[IX_AOA], cas])
+    return _outputs(x, theta_p)[0]
 
 
 def airdata_h_jac_x(x: Vec, theta_p: Vec) -> Mat:
     """C_k = dh/dx (Wan2018 eq. 23 with c_22 = 0, Remark 1)."""
-    d = x[IX_AOA] - theta_p[IT_THETA]
-    sd, cd = math.sin(d), math.cos(d)
-    vg = theta_p[IT_VG]
-    _, dcas = cas_from_tas_with_derivative(tas_approx(x, theta_p), theta_p[IT_Z])
-    cm = np.zeros((N_Y, N_X))
-    cm[IY_VG, IX_VG] = 1.0
-    cm[IY_VZ, IX_AOA] = vg * _sin_gamma(x[IX_AOA], theta_p[IT_THETA], *lateral(theta_p))[1]
-    cm[IY_VZ, IX_WZ] = -1.0
-    cm[IY_AOA, IX_AOA] = 1.0
-    # dV_t/dalpha, dV_t/dW_x, dV_t/dW_z of eq. 11
-    cm[IY_CAS, IX_AOA] = dcas * (x[IX_WX] * sd - x[IX_WZ] * cd)
-    cm[IY_CAS, IX_WX] = -dcas * cd
-    cm[IY_CAS, IX_WZ] = -dcas * sd
-    return cm
+    return _outputs(x, theta_p)[1]
+
+
+def _outputs(x: Vec, theta_p: Vec) -> tuple[Vec, Mat]:
+    h, cm = np.empty(N_Y), np.empty((N_Y, N_X))
+    load_kernels("gcs_monitor.models._airdata_jit").outputs(
+        _f64(x), _f64(theta_p), _JIT_CONSTS, h, cm)
+    return h, cm
+
+
+def _f64(a: Vec) -> Vec:
+    return np.asarray(a, dtype=np.float64)
 
 
 def airdata_initial_state(
@@ -307,14 +272,11 @@ class AirDataModel:
         """Compiled linearisation over the first ``n`` horizon nodes (Wan2018 eq. 42).
 
         Optional part of :class:`gcs_monitor.filters.mhe.MheModel`: fills ``a, b, f`` (nodes
-        0..n-2) and the masked ``cm, ry`` (nodes 0..n-1) exactly as ``f_jac_x``, ``f_jac_u``,
-        ``f``, ``h_jac_x`` and ``h`` would, in one numba call. Returns False (arrays untouched)
-        when numba is not installed; the caller then calls the methods above node by node.
+        0..n-2) and the masked ``cm, ry`` (nodes 0..n-1) as ``f_jac_x``, ``f_jac_u``, ``f``,
+        ``h_jac_x`` and ``h`` would (the defects with the kernel's form of eq. 20, see the
+        module docstring), in one numba call. Returns True.
         """
-        kern = compiled_kernels()
-        if kern is None:
-            return False
-        kern.linearise_horizon(
+        load_kernels("gcs_monitor.models._airdata_jit").linearise_horizon(
             n, x_lin, u_lin, th, dts, ym, mk, self.params.g_mps2,
             1.0 if self.params.wind_accel_in_alpha else 0.0, _JIT_CONSTS, a, b, f, cm, ry,
         )  # fmt: skip
@@ -331,17 +293,6 @@ _JIT_CONSTS = (
     _GAS_EXP,
     _EXP_ISENTROPIC,
 )
-
-
-class CompiledAirData(Protocol):
-    """What ``_airdata_jit`` provides."""
-
-    def linearise_horizon(self, *args: object) -> None: ...
-
-
-def compiled_kernels() -> CompiledAirData | None:
-    """The numba version of this model, imported on first use (None if numba is missing)."""
-    return optional_module("gcs_monitor.models._airdata_jit")
 
 
 # ------------------------------------------------------------------------------------------------

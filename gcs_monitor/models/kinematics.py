@@ -13,7 +13,11 @@ AS-KM: airspeed kinematic model (Lu2016 eqs. 15-20), for comparison.
 Faults enter through the input: the model is ``f(x, u_m - f^i)`` (Lu2016 eq. 5), so
 ``df/df^i = -df/du = G(x)`` (Lu2016 eqs. 13, 19): the same matrix distributes noise and faults.
 
-All functions are pure and work on plain floats internally (they run at 100 Hz inside filters).
+The GS-KM runs in the numba kernel of ``models/_kinematics_jit.py``: :func:`gs_km_f`, the
+Jacobians and :class:`GsKm` below wrap it, and the filter's hot path calls it directly
+(``estimators/imu_ts.py``). The plain-float reference that the equivalence test compares it
+with, bit for bit, is ``tests/reference/kinematics.py``. The AS-KM (for comparison) is plain
+Python, working on floats internally (it runs at 100 Hz inside filters).
 
 Deviation from the printed text (see docs/papers-notes.md, Lu2016): the printed psi_dot row of
 eq. 11 has ``+(U_E/(R_e+h) + Omega cos(delta)) tan(theta) cos(psi)``; the rotation of the
@@ -26,13 +30,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
-from gcs_monitor.core import constants as c
 from gcs_monitor.core.atmosphere import gravity_mps2
-from gcs_monitor.core.optional import optional_module
+from gcs_monitor.core.kernels import load_kernels
 from gcs_monitor.core.types import Mat, Vec
 
 N_X = 6  # state dimension of both models
@@ -43,35 +45,8 @@ N_U = 6  # IMU input dimension
 # ---------------------------------------------------------------------------------------------
 
 
-def _gs_km_rates(
-    x: list[float], u: list[float], lat_rad: float, alt_m: float, g_mps2: float
-) -> list[float]:
-    """Plain-float body of Lu2016 eq. 11 (psi row with the corrected sign, see module doc)."""
-    un, ue, ud, phi, th, psi = x
-    ax, ay, az, p, q, r = u
-    sph, cph = math.sin(phi), math.cos(phi)
-    sth, cth = math.sin(th), math.cos(th)
-    sps, cps = math.sin(psi), math.cos(psi)
-    sd, cd = math.sin(lat_rad), math.cos(lat_rad)
-    td = sd / cd
-    tth = sth / cth
-    rr = c.EARTH_RADIUS_M + alt_m
-    om = c.EARTH_RATE_RADPS
-    # specific force rotated to NED (C_ned_frd @ a)
-    an = cth * cps * ax + (sph * sth * cps - cph * sps) * ay + (cph * sth * cps + sph * sps) * az
-    ae = cth * sps * ax + (sph * sth * sps + cph * cps) * ay + (cph * sth * sps - sph * cps) * az
-    ad = -sth * ax + sph * cth * ay + cph * cth * az
-    dun = an + (un * ud - ue * ue * td) / rr - 2.0 * om * ue * sd
-    due = ae + (un * ue * td + ue * ud) / rr + 2.0 * om * (un * sd + ud * cd)
-    dud = ad - (un * un + ue * ue) / rr - 2.0 * om * ue * cd + g_mps2
-    a_ = ue / rr + om * cd  # north component of the navigation-frame rate
-    b_ = un / rr  # minus its east component
-    hor = -a_ * cps + b_ * sps  # cos(theta) * phi_dot contribution of the frame rate
-    qsr = q * sph + r * cph
-    dphi = p + qsr * tth + hor / cth
-    dth = q * cph - r * sph + a_ * sps + b_ * cps
-    dpsi = qsr / cth + hor * tth + ue * td / rr + om * sd
-    return [dun, due, dud, dphi, dth, dpsi]
+def _f64(a: Vec) -> Vec:
+    return np.asarray(a, dtype=np.float64)
 
 
 def gs_km_f(x: Vec, u: Vec, lat_rad: float, alt_m: float) -> Vec:
@@ -85,77 +60,16 @@ def gs_km_f(x: Vec, u: Vec, lat_rad: float, alt_m: float) -> Vec:
     lat_rad : geodetic latitude delta (rad)
     alt_m : altitude h above the sphere (m)
     """
+    out = np.empty(N_X)
     g = gravity_mps2(lat_rad, alt_m)
-    return np.array(_gs_km_rates(list(x), list(u), lat_rad, alt_m, g))
-
-
-def _gs_km_jac_x_rows(
-    x: list[float], u: list[float], lat_rad: float, alt_m: float
-) -> list[list[float]]:
-    un, ue, ud, phi, th, psi = x
-    ax, ay, az, p, q, r = u
-    sph, cph = math.sin(phi), math.cos(phi)
-    sth, cth = math.sin(th), math.cos(th)
-    sps, cps = math.sin(psi), math.cos(psi)
-    sd, cd = math.sin(lat_rad), math.cos(lat_rad)
-    td = sd / cd
-    tth = sth / cth
-    rr = c.EARTH_RADIUS_M + alt_m
-    om = c.EARTH_RATE_RADPS
-    # d(C a)/d(phi, theta, psi)
-    dn_dphi = (cph * sth * cps + sph * sps) * ay + (-sph * sth * cps + cph * sps) * az
-    de_dphi = (cph * sth * sps - sph * cps) * ay + (-sph * sth * sps - cph * cps) * az
-    dd_dphi = cph * cth * ay - sph * cth * az
-    dn_dth = -sth * cps * ax + sph * cth * cps * ay + cph * cth * cps * az
-    de_dth = -sth * sps * ax + sph * cth * sps * ay + cph * cth * sps * az
-    dd_dth = -cth * ax - sph * sth * ay - cph * sth * az
-    dn_dpsi = (
-        -cth * sps * ax + (-sph * sth * sps - cph * cps) * ay + (-cph * sth * sps + sph * cps) * az
-    )
-    de_dpsi = (
-        cth * cps * ax + (sph * sth * cps - cph * sps) * ay + (cph * sth * cps + sph * sps) * az
-    )
-    a_ = ue / rr + om * cd
-    b_ = un / rr
-    hor = -a_ * cps + b_ * sps
-    dhor_dpsi = a_ * sps + b_ * cps
-    qsr = q * sph + r * cph
-    qcr = q * cph - r * sph
-    c2 = cth * cth
-    return [
-        [ud / rr, -2.0 * ue * td / rr - 2.0 * om * sd, un / rr, dn_dphi, dn_dth, dn_dpsi],
-        [
-            ue * td / rr + 2.0 * om * sd,
-            (un * td + ud) / rr,
-            ue / rr + 2.0 * om * cd,
-            de_dphi,
-            de_dth,
-            de_dpsi,
-        ],
-        [-2.0 * un / rr, -2.0 * ue / rr - 2.0 * om * cd, 0.0, dd_dphi, dd_dth, 0.0],
-        [
-            sps / (rr * cth),
-            -cps / (rr * cth),
-            0.0,
-            qcr * tth,
-            (qsr + hor * sth) / c2,
-            dhor_dpsi / cth,
-        ],
-        [cps / rr, sps / rr, 0.0, -qsr, 0.0, -hor],
-        [
-            sps * tth / rr,
-            -cps * tth / rr + td / rr,
-            0.0,
-            qcr / cth,
-            (qsr * sth + hor) / c2,
-            dhor_dpsi * tth,
-        ],
-    ]
+    load_kernels("gcs_monitor.models._kinematics_jit").rates(
+        _f64(x), _f64(u), float(lat_rad), float(alt_m), g, out)
+    return out
 
 
 def gs_km_jac_x(x: Vec, u: Vec, lat_rad: float, alt_m: float) -> Mat:
     """``df/dx`` of the GS-KM (Lu2016 eq. 34, F), shape (6, 6). Arguments as :func:`gs_km_f`."""
-    return np.array(_gs_km_jac_x_rows(list(x), list(u), lat_rad, alt_m))
+    return GsKm(lat_rad, alt_m).jacobians(_f64(x), _f64(u))[0]
 
 
 def _euler_kin_rows(phi: float, th: float) -> list[list[float]]:
@@ -165,30 +79,16 @@ def _euler_kin_rows(phi: float, th: float) -> list[list[float]]:
     return [[1.0, sph * sth / cth, cph * sth / cth], [0.0, cph, -sph], [0.0, sph / cth, cph / cth]]
 
 
-def _gs_km_jac_u_rows(x: list[float]) -> list[list[float]]:
-    phi, th, psi = x[3], x[4], x[5]
-    sph, cph = math.sin(phi), math.cos(phi)
-    sth, cth = math.sin(th), math.cos(th)
-    sps, cps = math.sin(psi), math.cos(psi)
-    e = _euler_kin_rows(phi, th)
-    return [
-        [cth * cps, sph * sth * cps - cph * sps, cph * sth * cps + sph * sps, 0.0, 0.0, 0.0],
-        [cth * sps, sph * sth * sps + cph * cps, cph * sth * sps - sph * cps, 0.0, 0.0, 0.0],
-        [-sth, sph * cth, cph * cth, 0.0, 0.0, 0.0],
-        [0.0, 0.0, 0.0, *e[0]],
-        [0.0, 0.0, 0.0, *e[1]],
-        [0.0, 0.0, 0.0, *e[2]],
-    ]
+def gs_km_G(x: Vec) -> Mat:
+    """Noise/fault distribution ``G(x) = -df/du = df/df^i`` (Lu2016 eq. 13), shape (6, 6)."""
+    G = np.empty((N_X, N_U))
+    load_kernels("gcs_monitor.models._kinematics_jit").input_matrix(_f64(x), G)
+    return G
 
 
 def gs_km_jac_u(x: Vec) -> Mat:
     """``df/du`` of the GS-KM, shape (6, 6); independent of u and of the earth terms."""
-    return np.array(_gs_km_jac_u_rows(list(x)))
-
-
-def gs_km_G(x: Vec) -> Mat:
-    """Noise/fault distribution ``G(x) = -df/du = df/df^i`` (Lu2016 eq. 13), shape (6, 6)."""
-    return -gs_km_jac_u(x)
+    return -gs_km_G(x)
 
 
 def gs_km_h(x: Vec) -> Vec:
@@ -336,22 +236,17 @@ class GsKm:
 
     def propagate(self, x: Vec, u0: Vec, u1: Vec, dt_s: float) -> Vec:
         """``x + int_{t0}^{t1} f(x, u) dt`` by Heun's method, input linear between samples."""
+        out = np.empty(N_X)
         g = gravity_mps2(self.lat_rad, self.alt_m)
-        xl = x.tolist()
-        ul0 = u0.tolist()
-        ul1 = u1.tolist()
-        k1 = _gs_km_rates(xl, ul0, self.lat_rad, self.alt_m, g)
-        xe = [xi + dt_s * ki for xi, ki in zip(xl, k1, strict=True)]
-        k2 = _gs_km_rates(xe, ul1, self.lat_rad, self.alt_m, g)
-        half = dt_s / 2.0
-        return np.array([xi + half * (a + b) for xi, a, b in zip(xl, k1, k2, strict=True)])
+        load_kernels("gcs_monitor.models._kinematics_jit").propagate(
+            _f64(x), _f64(u0), _f64(u1), self.lat_rad, self.alt_m, g, float(dt_s), out)
+        return out
 
     def jacobians(self, x: Vec, u: Vec) -> tuple[Mat, Mat]:
-        """``(F, G) = (df/dx, df/df^i)`` at ``(x, u)``."""
-        xl = x.tolist()
-        F = np.array(_gs_km_jac_x_rows(xl, u.tolist(), self.lat_rad, self.alt_m))
-        G = np.array(_gs_km_jac_u_rows(xl))
-        np.negative(G, out=G)
+        """``(F, G) = (df/dx, df/df^i)`` at ``(x, u)`` (Lu2016 eqs. 13, 34)."""
+        F, G = np.empty((N_X, N_X)), np.empty((N_X, N_U))
+        load_kernels("gcs_monitor.models._kinematics_jit").jacobians(
+            _f64(x), _f64(u), self.lat_rad, self.alt_m, F, G)
         return F, G
 
     def h(self, x: Vec) -> Vec:
@@ -389,9 +284,3 @@ class AsKm:
 
     def h_jac(self, x: Vec) -> Mat:
         return np.array(_as_km_jac_h_rows(x.tolist()))
-
-
-def compiled_gs_km() -> Any | None:
-    """The numba GS-KM (``_kinematics_jit``: ``rates``, ``propagate``, ``jacobians``, writing
-    into caller arrays), imported on first use; None if numba is not installed."""
-    return optional_module("gcs_monitor.models._kinematics_jit")

@@ -22,23 +22,28 @@ non-rotating limit of the GS-KM (``kinematics.py``, Lu2016 eq. 11) rotated into 
 and the simulator's truth in a 30 deg coordinated turn to 0.01-0.06 m/s^2 RMS
 (docs/papers-notes.md).
 
-All functions are pure and use plain float math (6-element models; numpy overhead dominates
-otherwise).
+The model runs in the numba kernels of ``models/_kinematics_body_jit.py``: the functions below
+wrap them (each allocates its result), and the estimator's hot path calls them directly
+(``estimators/imu_hosm.py``). The plain-float reference that the equivalence test compares
+them with is ``tests/reference/kinematics_body.py``.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Protocol
 
 import numpy as np
 
-from gcs_monitor.core.optional import optional_module
+from gcs_monitor.core.kernels import load_kernels
 from gcs_monitor.core.types import Mat, Vec
 
 N_STATE = 6
 N_INPUT = 6
 N_MEAS = 6
+
+
+def _f64(a: Vec) -> Vec:
+    return np.asarray(a, dtype=np.float64)
 
 
 def body_gs_derivative(x: Vec, u_m: Vec, f_hat: Vec, g_mps2: float) -> Vec:
@@ -55,24 +60,10 @@ def body_gs_derivative(x: Vec, u_m: Vec, f_hat: Vec, g_mps2: float) -> Vec:
     -------
     (6,) state derivative
     """
-    u, v, w, phi, theta, _ = (float(a) for a in x)
-    ax, ay, az, pm, qm, rm = (float(a) for a in u_m)
-    pe = pm - float(f_hat[3])
-    qe = qm - float(f_hat[4])
-    re = rm - float(f_hat[5])
-    sph, cph = math.sin(phi), math.cos(phi)
-    sth, cth = math.sin(theta), math.cos(theta)
-    tth = sth / cth
-    return np.array(
-        [
-            v * re - w * qe + ax - g_mps2 * sth,  # eq. 9
-            -u * re + w * pe + ay + g_mps2 * cth * sph,  # eq. 10
-            u * qe - v * pe + az + g_mps2 * cth * cph,  # eq. 11
-            pm + qe * sph * tth + re * cph * tth,  # eq. 12
-            qm * cph - re * sph,  # eq. 13
-            qe * sph / cth + rm * cph / cth,  # eq. 14
-        ]
-    )
+    out = np.empty(N_STATE)
+    kern = load_kernels("gcs_monitor.models._kinematics_body_jit")
+    kern.derivative(_f64(x), _f64(u_m), _f64(f_hat), float(g_mps2), out)
+    return out
 
 
 def body_gs_jac_x(x: Vec, u_m: Vec, f_hat: Vec, g_mps2: float) -> Mat:
@@ -82,26 +73,10 @@ def body_gs_jac_x(x: Vec, u_m: Vec, f_hat: Vec, g_mps2: float) -> Mat:
     -------
     (6, 6) continuous-time state Jacobian
     """
-    _, _, _, phi, theta, _ = (float(a) for a in x)
-    _, _, _, pm, qm, rm = (float(a) for a in u_m)
-    pe = pm - float(f_hat[3])
-    qe = qm - float(f_hat[4])
-    re = rm - float(f_hat[5])
-    sph, cph = math.sin(phi), math.cos(phi)
-    sth, cth = math.sin(theta), math.cos(theta)
-    tth = sth / cth
-    c2 = cth * cth
-    g = g_mps2
-    return np.array(
-        [
-            [0.0, re, -qe, 0.0, -g * cth, 0.0],
-            [-re, 0.0, pe, g * cth * cph, -g * sth * sph, 0.0],
-            [qe, -pe, 0.0, -g * cth * sph, -g * sth * cph, 0.0],
-            [0.0, 0.0, 0.0, (qe * cph - re * sph) * tth, (qe * sph + re * cph) / c2, 0.0],
-            [0.0, 0.0, 0.0, -qm * sph - re * cph, 0.0, 0.0],
-            [0.0, 0.0, 0.0, (qe * cph - rm * sph) / cth, (qe * sph + rm * cph) * sth / c2, 0.0],
-        ]
-    )
+    F = np.empty((N_STATE, N_STATE))
+    kern = load_kernels("gcs_monitor.models._kinematics_body_jit")
+    kern.jac_x(_f64(x), _f64(u_m), _f64(f_hat), float(g_mps2), F)
+    return F
 
 
 def body_gs_noise_matrix(x: Vec) -> Mat:
@@ -115,56 +90,9 @@ def body_gs_noise_matrix(x: Vec) -> Mat:
     -------
     (6, 6) matrix mapping IMU noise (layout of ``u_m``) into the state derivative
     """
-    u, v, w, phi, theta, _ = (float(a) for a in x)
-    sph, cph = math.sin(phi), math.cos(phi)
-    sth, cth = math.sin(theta), math.cos(theta)
-    tth = sth / cth
-    return np.array(
-        [
-            [-1.0, 0.0, 0.0, 0.0, w, -v],
-            [0.0, -1.0, 0.0, -w, 0.0, u],
-            [0.0, 0.0, -1.0, v, -u, 0.0],
-            [0.0, 0.0, 0.0, -1.0, -sph * tth, -cph * tth],
-            [0.0, 0.0, 0.0, 0.0, -cph, sph],
-            [0.0, 0.0, 0.0, 0.0, -sph / cth, -cph / cth],
-        ]
-    )
-
-
-def _dcm_and_partials(phi: float, theta: float, psi: float) -> tuple[Mat, Mat, Mat, Mat]:
-    """C_ned_frd (ZYX) and its partial derivatives with respect to phi, theta, psi."""
-    sph, cph = math.sin(phi), math.cos(phi)
-    sth, cth = math.sin(theta), math.cos(theta)
-    sps, cps = math.sin(psi), math.cos(psi)
-    C = np.array(
-        [
-            [cth * cps, sph * sth * cps - cph * sps, cph * sth * cps + sph * sps],
-            [cth * sps, sph * sth * sps + cph * cps, cph * sth * sps - sph * cps],
-            [-sth, sph * cth, cph * cth],
-        ]
-    )
-    dphi = np.array(
-        [
-            [0.0, cph * sth * cps + sph * sps, -sph * sth * cps + cph * sps],
-            [0.0, cph * sth * sps - sph * cps, -sph * sth * sps - cph * cps],
-            [0.0, cph * cth, -sph * cth],
-        ]
-    )
-    dth = np.array(
-        [
-            [-sth * cps, sph * cth * cps, cph * cth * cps],
-            [-sth * sps, sph * cth * sps, cph * cth * sps],
-            [-cth, -sph * sth, -cph * sth],
-        ]
-    )
-    dpsi = np.array(
-        [
-            [-cth * sps, -sph * sth * sps - cph * cps, -cph * sth * sps + sph * cps],
-            [cth * cps, sph * sth * cps - cph * sps, cph * sth * cps + sph * sps],
-            [0.0, 0.0, 0.0],
-        ]
-    )
-    return C, dphi, dth, dpsi
+    G = np.empty((N_STATE, N_INPUT))
+    load_kernels("gcs_monitor.models._kinematics_body_jit").noise_matrix(_f64(x), G)
+    return G
 
 
 def body_gs_measurement(x: Vec) -> Vec:
@@ -176,23 +104,15 @@ def body_gs_measurement(x: Vec) -> Vec:
     -------
     (6,) [v_N, v_E, v_D] (m/s, NED) and the Euler angles (rad)
     """
-    C, _, _, _ = _dcm_and_partials(float(x[3]), float(x[4]), float(x[5]))
-    out = np.empty(N_MEAS)
-    out[:3] = C @ x[:3]
-    out[3:] = x[3:]
-    return out
+    h, H = np.empty(N_MEAS), np.empty((N_MEAS, N_STATE))
+    load_kernels("gcs_monitor.models._kinematics_body_jit").measurement(_f64(x), h, H)
+    return h
 
 
 def body_gs_meas_jac(x: Vec) -> Mat:
     """Jacobian H = dh/dx of :func:`body_gs_measurement` (Atmaca2025 eq. 26)."""
-    C, dphi, dth, dpsi = _dcm_and_partials(float(x[3]), float(x[4]), float(x[5]))
-    vb = x[:3]
-    H = np.zeros((N_MEAS, N_STATE))
-    H[:3, :3] = C
-    H[:3, 3] = dphi @ vb
-    H[:3, 4] = dth @ vb
-    H[:3, 5] = dpsi @ vb
-    H[3, 3] = H[4, 4] = H[5, 5] = 1.0
+    h, H = np.empty(N_MEAS), np.empty((N_MEAS, N_STATE))
+    load_kernels("gcs_monitor.models._kinematics_body_jit").measurement(_f64(x), h, H)
     return H
 
 
@@ -265,23 +185,10 @@ def fault_from_drift_rate(drift_rate: Vec, x: Vec) -> Vec:
     -------
     (6,) [f_Ax, f_Ay, f_Az (m/s^2), f_p, f_q, f_r (rad/s)]
     """
-    u, v, w, phi, theta, _ = (float(a) for a in x)
-    r = [float(a) for a in drift_rate]
-    sph, cph = math.sin(phi), math.cos(phi)
-    sth, cth = math.sin(theta), math.cos(theta)
-    fp = r[3] - sth * r[5]
-    fq = cph * r[4] + sph * cth * r[5]
-    fr = -sph * r[4] + cph * cth * r[5]
-    return np.array(
-        [
-            r[0] - (v * fr - w * fq),
-            r[1] - (w * fp - u * fr),
-            r[2] - (u * fq - v * fp),
-            fp,
-            fq,
-            fr,
-        ]
-    )
+    out = np.empty(N_INPUT)
+    kern = load_kernels("gcs_monitor.models._kinematics_body_jit")
+    kern.fault_from_drift_rate(_f64(drift_rate), _f64(x), out)
+    return out
 
 
 def drift_rate_to_fault(drift_rate: Vec, x: Vec, *, mapping: str = "exact") -> Vec:
@@ -319,27 +226,3 @@ def drift_rate_to_fault(drift_rate: Vec, x: Vec, *, mapping: str = "exact") -> V
     if mapping != "flat":
         raise ValueError(f"unknown drift-to-fault mapping {mapping!r}")
     return np.asarray(drift_rate, dtype=np.float64) / own_drift_gain(x[3:])
-
-
-# ---------------------------------------------------------------------------------------------
-# Compiled versions (numba, models/_kinematics_body_jit.py), imported lazily so that importing
-# this module stays cheap. tests/gcs_monitor/models/test_kinematics_body.py checks they agree with
-# the functions above.
-# ---------------------------------------------------------------------------------------------
-
-
-class CompiledBodyGs(Protocol):
-    """What ``_kinematics_body_jit`` provides (all write into caller-supplied arrays)."""
-
-    def derivative(self, x: Vec, u_m: Vec, f_hat: Vec, g: float, out: Vec) -> None: ...
-    def jac_x(self, x: Vec, u_m: Vec, f_hat: Vec, g: float, F: Mat) -> None: ...
-    def noise_matrix(self, x: Vec, G: Mat) -> None: ...
-    def measurement(self, x: Vec, h: Vec, H: Mat) -> None: ...
-    def prediction(self, *args: object) -> None: ...
-    def fault_integral_step(self, x: Vec, mu: Vec, mu_prev: Vec, f_int: Vec) -> None: ...
-    def fault_from_drift_rate(self, r: Vec, x: Vec, out: Vec) -> None: ...
-
-
-def compiled_kernels() -> CompiledBodyGs | None:
-    """The numba versions of this model, imported on first use (None if numba is missing)."""
-    return optional_module("gcs_monitor.models._kinematics_body_jit")

@@ -56,8 +56,3 @@ class SamplePeriod:
     def reset(self) -> None:
         self._last_us = None
         self._dt_us.clear()
-
-
-def samples_in(window_s: float, period_s: float, *, minimum: int = 1) -> int:
-    """Samples of a stream of period ``period_s`` in ``window_s`` (at least ``minimum``)."""
-    return max(minimum, round(window_s / period_s))

@@ -1,20 +1,26 @@
-"""Numba kernel of the servo bank's RK4 step (the closure of ``ServoBank._make_deriv``).
+"""The servo bank in numba (Lu2017 eqs. 4-13): its one implementation.
 
-Same equations and operation order as ``ServoBank._make_deriv`` and the RK4 of
-``ServoBank.step`` (a test checks they agree to 1e-12), including the mechanical stop. The
-constants travel in one array built by :func:`pack_params`; the per-surface inputs in a
-``(3, N_IN)`` array whose columns are the ``I_*`` names below.
+Per surface: the hydraulic plant (eq. 4), the NDI valve law (eq. 13) tracking the third-order
+reference model, the actuator faults on the valve command, RK4 over the simulation step and the
+mechanical stop (:func:`step_bank`); a jammed surface keeps only its reference model running
+(:func:`jam_step`). ``ServoBank`` calls them; the plain-float reference of the equivalence test
+is ``tests/reference/servo_bank.py`` (and ``gcs_monitor.models.servo`` the equations in the
+paper's form). The constants travel in one array built by :func:`pack_params`; the per-surface
+inputs in a ``(3, N_IN)`` array whose columns are the ``I_*`` names below. Loaded through
+``gcs_monitor.core.kernels``.
 """
 # mypy: disable-error-code="no-untyped-def"
 
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numba
 import numpy as np
 
-from gcs_monitor.models.servo import ServoLoopParams, ServoParams
+if TYPE_CHECKING:  # pack_params reads their fields; no jitted code uses another module
+    from gcs_monitor.models.servo import ServoLoopParams, ServoParams
 
 jit = numba.njit(cache=True, fastmath=False, nogil=True)
 
@@ -33,7 +39,7 @@ N_IN = 9
 
 
 def pack_params(p: ServoParams, lp: ServoLoopParams, stroke_m: float) -> np.ndarray:
-    """Constants of ``ServoBank._make_deriv`` plus the rod stroke."""
+    """The constants of eqs. 4 and 13 and of the reference model, plus the rod stroke."""
     a = p.piston_area_m2
     vm = p.mean_chamber_volume_m3
     w = lp.ref_bandwidth_radps
@@ -60,8 +66,16 @@ def pack_params(p: ServoParams, lp: ServoLoopParams, stroke_m: float) -> np.ndar
 
 
 @jit
+def _reference_jerk(r, rd, rdd, q_com, prm):
+    """Third derivative of the reference model ``w^3 / ((s + w)(s^2 + 2 zeta w s + w^2))``
+    driven by the rod command ``q_com``."""
+    return prm[P_W3] * (q_com - r) - prm[P_Z2W2] * rd - prm[P_Z2W] * rdd
+
+
+@jit
 def _deriv(s, k, inp, prm, d):
-    """``d = f(s)`` of surface inputs ``inp`` (the closure of ``ServoBank._make_deriv``)."""
+    """``d = f(s)`` of surface ``k``: plant (Lu2017 eq. 4), NDI law (eq. 13) on the biased rod
+    sensor (eq. 5), valve faults, reference model."""
     x1 = s[0]
     x2 = s[1]
     x3 = s[2]
@@ -77,7 +91,7 @@ def _deriv(s, k, inp, prm, d):
     vm2 = prm[P_VM2]
     a2 = prm[P_A2]
     umax = prm[P_UMAX]
-    rddd = prm[P_W3] * (inp[k, I_Q_COM] - r) - prm[P_Z2W2] * rd - prm[P_Z2W] * rdd
+    rddd = _reference_jerk(r, rd, rdd, inp[k, I_Q_COM], prm)
     y = x1 + inp[k, I_BIAS]
     ydd = (aps * x3 - bb * x2) * inv_m
     cy = cnum / (vm2 - a2 * y * y)
@@ -139,3 +153,17 @@ def step_bank(xs, inp, dt_s, prm):
             u_end = inp[k, I_RUNAWAY] if inp[k, I_EFF] != 0.0 else 0.0
             if u_end * s[0] > 0.0:
                 s[2] = inp[k, I_STALL_P]
+
+
+@jit
+def jam_step(s, q_com, dt_s, prm, jam_pos):
+    """A jammed surface over ``dt_s``: the rod held at ``jam_pos`` (``x2 = 0``), the reference
+    model stepped by explicit Euler; ``s`` (6,) in place."""
+    rd = s[4]
+    rdd = s[5]
+    rddd = _reference_jerk(s[3], rd, rdd, q_com, prm)
+    s[3] += dt_s * rd
+    s[4] += dt_s * rdd
+    s[5] += dt_s * rddd
+    s[0] = jam_pos
+    s[1] = 0.0

@@ -1,10 +1,13 @@
-"""Numba kernels of the rigid body: the derivative of ``RigidBody.evaluate`` and its RK4 step.
+"""The rigid body in numba: its equations of motion and RK4 step, one implementation.
 
-Same equations, same operation order as :meth:`sim_vehicle.dynamics.rigid_body.RigidBody.evaluate`
-(aero from :meth:`sim_vehicle.dynamics.aero.AeroModel.forces_moments`) and
-:func:`~sim_vehicle.dynamics.rigid_body.rk4_step` (a test checks they agree to 1e-12). The
-airframe's numbers travel in one float array built by :func:`pack_params`; the ``P_*`` names
-are its indices. Inputs are one array ``(da, de, dr, thr_cmd, wn, we, wd)``.
+:func:`evaluate` is the derivative and outputs of the 6-DOF model (the equations are in the
+``rigid_body`` module docstring: Lu2016 eq. 11 rows 1-3 with gravity eq. 12, the quaternion
+kinematics, Beard & McLain eq. 3.17; aero and thrust as ``sim_vehicle.dynamics.aero``);
+``RigidBody.evaluate`` wraps it for the trim and :func:`step` is the simulation loop's RK4
+step. The plain-float reference of the equivalence test is ``tests/reference/rigid_body.py``.
+The airframe's numbers travel in one float array built by :func:`pack_params`; the ``P_*``
+names are its indices. Inputs are one array ``(da, de, dr, thr_cmd, wn, we, wd)``. Loaded
+through ``gcs_monitor.core.kernels``.
 """
 # mypy: disable-error-code="no-untyped-def"
 
@@ -16,6 +19,9 @@ import numba
 import numpy as np
 
 from gcs_monitor.core import constants as k
+
+# the earth and ISA constants below are compiled in as constants: see gcs_monitor.core.kernels
+KERNEL_DEPENDENCIES = {"gcs_monitor.core.constants": "0b300fc9f27503d8"}
 
 jit = numba.njit(cache=True, fastmath=False, nogil=True)
 
@@ -82,8 +88,44 @@ def pack_params(body) -> np.ndarray:  # noqa: ANN001 - a RigidBody (import cycle
 
 
 @jit
+def dcm_from_quat(q0, q1, q2, q3):
+    """Row-major ``C_ned_frd`` of a unit quaternion (as ``gcs_monitor.core.frames``)."""
+    return (
+        1.0 - 2.0 * (q2 * q2 + q3 * q3),
+        2.0 * (q1 * q2 - q0 * q3),
+        2.0 * (q1 * q3 + q0 * q2),
+        2.0 * (q1 * q2 + q0 * q3),
+        1.0 - 2.0 * (q1 * q1 + q3 * q3),
+        2.0 * (q2 * q3 - q0 * q1),
+        2.0 * (q1 * q3 - q0 * q2),
+        2.0 * (q2 * q3 + q0 * q1),
+        1.0 - 2.0 * (q1 * q1 + q2 * q2),
+    )
+
+
+@jit
+def gravity(lat, h):
+    """Lu2016 eq. 12 (as ``gcs_monitor.core.atmosphere.gravity_mps2``)."""
+    s = math.sin(lat)
+    s2 = math.sin(2.0 * lat)
+    ratio = _R_E / (_R_E + h)
+    return _G_EQ * ratio * ratio * (1.0 + _G_K1 * s * s - _G_K2 * s2 * s2)
+
+
+@jit
+def isa_density(h):
+    """ISA troposphere density (as ``gcs_monitor.core.atmosphere.isa_density_kgpm3``)."""
+    t_k = _T0 + _LAPSE * h
+    return _P0 * (t_k / _T0) ** _GAS_EXP / (_R_AIR * t_k)
+
+
+@jit
 def evaluate(s, inp, prm, deriv, out):
-    """Fill ``deriv`` (14) and ``out`` (8) at state ``s`` with inputs ``inp`` (7)."""
+    """Fill ``deriv`` (14) and ``out`` (8) at state ``s`` with inputs ``inp`` (7).
+
+    ``out`` is (f_x, f_y, f_z, tas, alpha, beta, rho, thrust): specific force FRD (m/s^2), air
+    data (m/s, rad), density (kg/m^3), thrust (N).
+    """
     lat = s[0]
     h = s[2]
     vn = s[3]
@@ -100,26 +142,15 @@ def evaluate(s, inp, prm, deriv, out):
     da = inp[0]
     de = inp[1]
     dr = inp[2]
-    # dcm_from_quat_fast
-    c00 = 1.0 - 2.0 * (q2 * q2 + q3 * q3)
-    c01 = 2.0 * (q1 * q2 - q0 * q3)
-    c02 = 2.0 * (q1 * q3 + q0 * q2)
-    c10 = 2.0 * (q1 * q2 + q0 * q3)
-    c11 = 1.0 - 2.0 * (q1 * q1 + q3 * q3)
-    c12 = 2.0 * (q2 * q3 - q0 * q1)
-    c20 = 2.0 * (q1 * q3 - q0 * q2)
-    c21 = 2.0 * (q2 * q3 + q0 * q1)
-    c22 = 1.0 - 2.0 * (q1 * q1 + q2 * q2)
+    c00, c01, c02, c10, c11, c12, c20, c21, c22 = dcm_from_quat(q0, q1, q2, q3)
     an = vn - inp[4]
     ae = ve - inp[5]
     ad = vd - inp[6]
     u = c00 * an + c10 * ae + c20 * ad
     v = c01 * an + c11 * ae + c21 * ad
     w = c02 * an + c12 * ae + c22 * ad
-    # isa_density_fast
-    t_k = _T0 + _LAPSE * h
-    rho = _P0 * (t_k / _T0) ** _GAS_EXP / (_R_AIR * t_k)
-    # AeroModel.forces_moments
+    rho = isa_density(h)
+    # aero forces and moments (sim_vehicle.dynamics.aero)
     tas = math.sqrt(u * u + v * v + w * w)
     if tas < 1.0e-3:
         fx = fy = fz = ml = mm = mn = 0.0
@@ -166,7 +197,7 @@ def evaluate(s, inp, prm, deriv, out):
             prm[P_CN_BETA] * beta + prm[P_CN_P] * phat + prm[P_CN_R] * rhat
             + prm[P_CN_DA] * da + prm[P_CN_DR] * dr
         )
-    # AeroModel.thrust_n
+    # thrust (sim_vehicle.dynamics.aero)
     if prm[P_JET] != 0.0:
         thrust = thr * prm[P_MAX_THRUST] * (rho / _RHO0) ** prm[P_DENS_EXP]
     else:
@@ -184,16 +215,15 @@ def evaluate(s, inp, prm, deriv, out):
     sl = math.sin(lat)
     cl_ = math.cos(lat)
     tl = sl / cl_
-    # gravity_fast
-    s2 = math.sin(2.0 * lat)
-    ratio = _R_E / (_R_E + h)
-    g = _G_EQ * ratio * ratio * (1.0 + _G_K1 * sl * sl - _G_K2 * s2 * s2)
+    g = gravity(lat, h)
+    # Lu2016 eq. 11 rows 1-3 (transport rate + Coriolis)
     deriv[0] = vn / rh
     deriv[1] = ve / (rh * cl_)
     deriv[2] = -vd
     deriv[3] = fn + vn * vd / rh - ve * ve * tl / rh - 2.0 * om * ve * sl
     deriv[4] = fe + vn * ve * tl / rh + ve * vd / rh + 2.0 * om * (vn * sl + vd * cl_)
     deriv[5] = fd - vn * vn / rh - ve * ve / rh - 2.0 * om * ve * cl_ + g
+    # omega_in (earth rate + transport rate), NED, then body; quaternion kinematics
     win = ve / rh + om * cl_
     wie = -vn / rh
     wid = -ve * tl / rh - om * sl
@@ -204,6 +234,7 @@ def evaluate(s, inp, prm, deriv, out):
     deriv[7] = 0.5 * (q0 * pb + q2 * rb - q3 * qb)
     deriv[8] = 0.5 * (q0 * qb - q1 * rb + q3 * pb)
     deriv[9] = 0.5 * (q0 * rb + q1 * qb - q2 * pb)
+    # Euler's equations (Beard eq. 3.17)
     g1 = prm[P_G1]
     g4 = prm[P_G4]
     deriv[10] = g1 * p * q - prm[P_G2] * q * r + prm[P_G3] * ml + g4 * mn
@@ -225,9 +256,10 @@ def evaluate(s, inp, prm, deriv, out):
 
 @jit
 def step(s, dt_s, inp, k1, prm, s_new, deriv_new, out_new):
-    """RK4 step (``rk4_step`` with ``k1`` given), then :func:`evaluate` at the new state.
+    """One classical RK4 step with ``k1`` given, then :func:`evaluate` at the new state.
 
-    ``inp`` (14) holds the inputs at the step start then at its end (they vary linearly);
+    ``inp`` (14) holds the inputs at the step start then at its end: they vary linearly, so
+    that the surfaces and the wind keep the specific force continuous across steps;
     writes the new state, its derivative and outputs (with the end inputs) to the last three
     arrays, which must not alias ``s`` or ``k1``.
     """

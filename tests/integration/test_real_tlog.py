@@ -7,20 +7,15 @@ their inputs on this telemetry, and radio noise must only ever give LINK alarms.
 
 from __future__ import annotations
 
-from pathlib import Path
-
-import pytest
-
 from gcs_monitor.fdi.events import AlarmKind
 from gcs_monitor.link.transports import TlogSource
 from gcs_monitor.monitor import Monitor
 
-TLOG = Path("/work/shared/data/real/dronekit_flight_replay_copter.tlog")
+TLOG = "dronekit_flight_replay_copter.tlog"  # in the real-data folder (tests/conftest.py)
 
 
-@pytest.mark.skipif(not TLOG.is_file(), reason="shared real data not present")
-def test_real_copter_tlog_replays_and_reports_availability():
-    src = TlogSource(TLOG)
+def test_real_copter_tlog_replays_and_reports_availability(real_data_file):
+    src = TlogSource(real_data_file(TLOG))
     m = Monitor()
     for chunk, wall_s in src:
         m.feed(chunk, wall_s)

@@ -43,6 +43,7 @@ import numpy as np
 
 from gcs_monitor.core import constants as c
 from gcs_monitor.core.atmosphere import gravity_mps2
+from gcs_monitor.core.kernels import load_kernels
 from gcs_monitor.core.params import param, section
 from gcs_monitor.core.types import ChannelId, Mat, Vec
 from gcs_monitor.fdi.records import Estimate
@@ -55,14 +56,8 @@ from gcs_monitor.filters.otsekf import (
 from gcs_monitor.filters.sliding_mode import HosmState, LevantGains, hosm_init, hosm_step
 from gcs_monitor.models.kinematics_body import (
     N_STATE,
-    body_gs_derivative,
-    body_gs_jac_x,
     body_gs_meas_jac,
-    body_gs_measurement,
-    body_gs_noise_matrix,
-    compiled_kernels,
     drift_rate_to_fault,
-    fault_from_drift_rate,
 )
 from gcs_monitor.telemetry.frame import Frame
 from gcs_monitor.telemetry.period import SamplePeriod
@@ -136,8 +131,6 @@ class ImuHosmConfig:
     propagate: str = param("corrected", "model evaluated at the drift-corrected estimate "
                            "(corrected) or at x_bar as eq. 20 reads (paper)",
                            choices=("corrected", "paper"))
-    compiled: bool = param(True, "run model, OTSEKF and HOSM through their numba kernels (same "
-                           "equations)")
 
 
 @dataclass(frozen=True, slots=True)
@@ -173,9 +166,10 @@ class ImuHosmEstimator:
         self._q_imu_diag: Vec = self._Q_imu.diagonal().copy()
         self._eye = np.eye(N_STATE)
         self._zero_B = np.zeros((N_STATE, N_STATE))
-        self._kb = compiled_kernels() if self.cfg.compiled else None
-        # Work arrays of the compiled path: the kernels overwrite them every step and the filter
-        # does not keep them, so one OtsekfPrediction is reused.
+        kb = "gcs_monitor.models._kinematics_body_jit"
+        self._kb = load_kernels(kb)
+        # Work arrays of the kernels: they overwrite them every step and the filter does not
+        # keep them, so one OtsekfPrediction is reused.
         ns = N_STATE
         self._pred_buf = OtsekfPrediction(
             x_bar_prop=np.zeros(ns),
@@ -223,48 +217,29 @@ class ImuHosmEstimator:
         self._f_int = np.zeros(N_STATE)
 
     def _prediction(self, s: OtsekfState, st: _Step) -> OtsekfPrediction:
-        """Model quantities for k-1 -> k (Atmaca2025 eqs. 20, 25-27)."""
-        if self._kb is not None:
-            p = self._pred_buf
-            self._kb.prediction(
-                s.x_hat, s.x_bar, s.V, s.mu, st.u_m, self._f_model(), st.g_mps2, st.dt_s,
-                self._q_imu_diag, self._drift_var_rate, self.cfg.propagate == "corrected",
-                p.Phi, p.B, p.Qx, p.Qxmu, p.Qmu, p.x_bar_prop,
-            )  # fmt: skip
-            return p
-        return self._prediction_reference(s, st)
+        """Model quantities for k-1 -> k (Atmaca2025 eqs. 20, 25-27), through the model kernel
+        (its numpy reference: tests/reference/imu_hosm.py)."""
+        p = self._pred_buf
+        self._kb.prediction(
+            s.x_hat, s.x_bar, s.V, s.mu, st.u_m, self._f_model(), st.g_mps2, st.dt_s,
+            self._q_imu_diag, self._drift_var_rate, self.cfg.propagate == "corrected",
+            p.Phi, p.B, p.Qx, p.Qxmu, p.Qmu, p.x_bar_prop,
+        )  # fmt: skip
+        return p
 
     def _f_model(self) -> Vec:
         """Fault estimate inside eqs. 9-14: zero for ``mapping="exact"`` (eq. 20 as printed)."""
         return self._zero_f if self.cfg.mapping == "exact" else self._f_hat
 
-    def _meas_compiled(self, x: Vec) -> tuple[Vec, Mat]:
-        assert self._kb is not None
+    def _measurement(self, x: Vec) -> tuple[Vec, Mat]:
+        """h(x) and its Jacobian (Atmaca2025 eq. 15)."""
         self._kb.measurement(x, self._h_buf, self._H_buf)
         return self._h_buf, self._H_buf
 
-    def _prediction_reference(self, s: OtsekfState, st: _Step) -> OtsekfPrediction:
-        """Numpy reference of :meth:`_prediction` (the compiled model mirrors it)."""
-        dt, g, u_m, fh = st.dt_s, st.g_mps2, st.u_m, self._f_model()
-        x_lin = s.x_hat  # eq. 26: linearise at x_hat_{k-1|k-1}
-        F = body_gs_jac_x(x_lin, u_m, fh, g)
-        Fdt = F * dt
-        # eq. 25, series truncated after the second-order term (|F dt| ~ 1e-3 at 100 Hz)
-        Phi = self._eye + Fdt + 0.5 * (Fdt @ Fdt)
-        # eq. 27 over one step with G held: int_0^dt e^{F s} ds G = (I + F dt / 2) G dt
-        Gam = (self._eye + 0.5 * Fdt) @ body_gs_noise_matrix(x_lin) * dt
-        Qmu = np.diag(self._drift_var_rate * dt)
-        Qx = Gam @ self._Q_imu @ Gam.T + Qmu
-        Qxmu = -Qmu
-        if self.cfg.propagate == "corrected":
-            # eq. 20 evaluated along the drift-corrected trajectory: f_d(x_hat) - Phi V mu, which
-            # plus u_bar of eq. 35 gives x_bar_{k|k-1} = f_d(x_hat) - U mu (exact for linear f)
-            x_bar_prop = _rk2(s.x_hat, u_m, fh, g, dt) - Phi @ (s.V @ s.mu)
-            B = self._zero_B
-        else:
-            x_bar_prop = _rk2(s.x_bar, u_m, fh, g, dt)
-            B = Phi - self._eye
-        return OtsekfPrediction(x_bar_prop=x_bar_prop, Phi=Phi, B=B, Qx=Qx, Qxmu=Qxmu, Qmu=Qmu)
+    def _fault_increment(self, x_prev: Vec, mu: Vec, mu_prev: Vec) -> None:
+        """``f_int += A(x_prev)^-1 (mu - mu_prev)``: the drift increment in fault coordinates
+        (module docstring), in place."""
+        self._kb.fault_integral_step(x_prev, mu, mu_prev, self._f_int)
 
     def _frame_inputs(self, frame: Frame) -> tuple[_Step | None, str]:
         imu = frame.primary_imu
@@ -317,16 +292,14 @@ class ImuHosmEstimator:
         assert self._hosm is not None
         x_prev, mu_prev = self._filt.x_hat, self._filt.mu
         pred = self._prediction(self._filt, st)
-        compiled = self._kb is not None
         filt, innov = otsekf_step(
             self._filt,
             pred,
-            self._meas_compiled if compiled else _meas,
+            self._measurement,
             st.y,
             self._R,
             gate_sigma=self.cfg.gate_sigma,
             wrap_idx=(_PSI,),
-            compiled=compiled,
         )
         self._t_prev_us = frame.t_us
         if not innov.numerics_ok:
@@ -334,24 +307,18 @@ class ImuHosmEstimator:
             self._init(st.y)
             return self._estimate(frame.t_us, st, np.zeros(N_STATE), np.zeros(N_STATE), False)
         self._filt = filt
-        self._f_hat = self._fault_update(x_prev, mu_prev, filt, st.dt_s, compiled)
+        self._f_hat = self._fault_update(x_prev, mu_prev, filt, st.dt_s)
         return self._estimate(frame.t_us, st, innov.nu, innov.test_ratio, True)
 
-    def _fault_update(
-        self, x_prev: Vec, mu_prev: Vec, filt: OtsekfState, dt_s: float, compiled: bool
-    ) -> Vec:
+    def _fault_update(self, x_prev: Vec, mu_prev: Vec, filt: OtsekfState, dt_s: float) -> Vec:
         """Eqs. 47-50 and eq. 51 (``mapping``, see the module docstring)."""
         assert self._hosm is not None
-        kb = self._kb
         if self.cfg.mapping != "exact":
-            self._hosm = hosm_step(self._hosm, filt.mu, self._lambdas, dt_s, compiled=compiled)
+            self._hosm = hosm_step(self._hosm, filt.mu, self._lambdas, dt_s)
             return drift_rate_to_fault(self._hosm.z[1], filt.x_hat, mapping=self.cfg.mapping)
         # drift increment of step k-1 -> k into fault coordinates at the state the model used
-        if kb is not None:
-            kb.fault_integral_step(x_prev, filt.mu, mu_prev, self._f_int)
-        else:
-            self._f_int = self._f_int + fault_from_drift_rate(filt.mu - mu_prev, x_prev)
-        self._hosm = hosm_step(self._hosm, self._f_int, self._lambdas, dt_s, compiled=compiled)
+        self._fault_increment(x_prev, filt.mu, mu_prev)
+        self._hosm = hosm_step(self._hosm, self._f_int, self._lambdas, dt_s)
         return cast(Vec, self._hosm.z[1].copy())
 
     def _estimate(self, t_us: int, st: _Step, nu: Vec, ratio: Vec, ok: bool) -> Estimate:
@@ -359,11 +326,7 @@ class ImuHosmEstimator:
         x = self._filt.x_hat
         fh = self._f_hat
         virt = st.u_m - fh
-        if self._kb is not None:
-            self._kb.measurement(x, self._h_buf, self._H_buf)
-            vel_ned = self._h_buf[:3].copy()
-        else:
-            vel_ned = body_gs_meas_jac(x)[:3, :3] @ x[:3]
+        vel_ned = self._measurement(x)[0][:3].copy()
         states: dict[str, Vec] = {
             "vel_frd_mps": x[:3].copy(),
             "vel_ned_mps": vel_ned,
@@ -386,14 +349,3 @@ class ImuHosmEstimator:
 def _all_finite(a: Vec) -> bool:
     """``np.isfinite(a).all()`` for a short vector, on Python floats (cheaper at n = 3-6)."""
     return all(map(math.isfinite, a.ravel().tolist() if isinstance(a, np.ndarray) else a))
-
-
-def _meas(x: Vec) -> tuple[Vec, Mat]:
-    return body_gs_measurement(x), body_gs_meas_jac(x)
-
-
-def _rk2(x: Vec, u_m: Vec, f_hat: Vec, g: float, dt: float) -> Vec:
-    """Midpoint integration of eqs. 9-14 over one step, inputs held (eq. 20's integral)."""
-    k1 = body_gs_derivative(x, u_m, f_hat, g)
-    k2 = body_gs_derivative(x + 0.5 * dt * k1, u_m, f_hat, g)
-    return x + dt * k2

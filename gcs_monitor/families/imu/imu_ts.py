@@ -15,6 +15,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from gcs_monitor.core.atmosphere import gravity_mps2, tas_from_cas
+from gcs_monitor.core.kernels import load_kernels
 from gcs_monitor.core.params import param, section
 from gcs_monitor.core.types import ChannelId, Mat, Vec
 from gcs_monitor.families.imu.gating import (
@@ -35,7 +36,7 @@ from gcs_monitor.filters.two_stage import (
     two_stage_init,
     two_stage_step,
 )
-from gcs_monitor.models.kinematics import AsKm, GsKm, compiled_gs_km
+from gcs_monitor.models.kinematics import AsKm, GsKm
 from gcs_monitor.telemetry.frame import Frame
 from gcs_monitor.telemetry.period import SamplePeriod
 
@@ -194,9 +195,10 @@ class ImuTwoStageEstimator:
         # Compiled hot path (GS-KM, numba): the model kernels write F, G and the propagated
         # x_bar into these work arrays and PackedTwoStage runs the filter step in one call; the
         # same equations and operations as two_stage_step (tests/.../test_imu_ts.py).
-        self._kin = compiled_gs_km() if self.cfg.model == "gs" and self._fcfg.compiled else None
+        gs_km = self.cfg.model == "gs"
+        self._kin = load_kernels("gcs_monitor.models._kinematics_jit") if gs_km else None
         self._packed: PackedTwoStage | None = None
-        if self._kin is not None and PackedTwoStage.available():
+        if self._kin is not None:
             self._packed = PackedTwoStage(6, 6, 6, self._fcfg.window_n)
             self._F = np.zeros((6, 6))
             self._G = np.zeros((6, 6))

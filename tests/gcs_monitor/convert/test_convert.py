@@ -19,11 +19,11 @@ from gcs_monitor.convert.writer import convert_file, lu2016_table2_injector
 from gcs_monitor.core.frames import dcm_ned_frd
 from tests.helpers.stock_mavutil import stock_mavutil
 
-REAL = Path(__file__).resolve().parents[4] / "shared" / "data" / "real"
-if not REAL.exists():
-    REAL = Path("/work/shared/data/real")
-pytestmark = pytest.mark.skipif(not REAL.exists(), reason="shared/data/real not present")
-ZIP = sorted((REAL / "zipline_launch").glob("flight_*.csv"))
+
+@pytest.fixture(scope="module")
+def zipline(real_data_file) -> Path:
+    """The first Zipline flight of the real data (tests/conftest.py)."""
+    return sorted(real_data_file("zipline_launch").glob("flight_*.csv"))[0]
 
 
 def _specific_force_residual(f, mask):  # d(v)/dt - (C f + g), NED, m/s^2
@@ -36,9 +36,9 @@ def _specific_force_residual(f, mask):  # d(v)/dt - (C f + g), NED, m/s^2
     return np.array(res)
 
 
-def test_zipline_frames_consistent():
+def test_zipline_frames_consistent(zipline):
     """Zipline README: R_nb f + g matches dv/dt (residual RMS ~0.1-0.3 m/s^2 after launch)."""
-    f = read_zipline(ZIP[0])
+    f = read_zipline(zipline)
     t_since_launch = f.t_s + (-5.0)
     mask = (t_since_launch > 0.5) & (t_since_launch < 7.0)
     # GPS arrays equal IMU arrays outside the reset mask, so index alignment holds here.
@@ -48,8 +48,8 @@ def test_zipline_frames_consistent():
     assert np.all(rms < 1.0), rms  # m/s^2: wrong sign/frame gives ~10-20 m/s^2
 
 
-def test_onspeed_units_and_roll_sign():
-    f = read_onspeed(REAL / "onspeed_vac_decel_stall_50hz.csv")
+def test_onspeed_units_and_roll_sign(real_data_file):
+    f = read_onspeed(real_data_file("onspeed_vac_decel_stall_50hz.csv"))
     # Level flight: specific force z about -g in both IMUs (FRD, z down).
     assert abs(np.median(f.acc_frd_mps2[0][:200, 2]) + 9.8) < 0.6
     assert abs(np.median(f.acc_frd_mps2[1][:200, 2]) + 9.8) < 0.6
@@ -61,8 +61,8 @@ def test_onspeed_units_and_roll_sign():
     assert len(f.gps_t_s) < 200  # 5 Hz GNSS, held samples dropped
 
 
-def test_alfa_flu_enu_to_frd_ned():
-    f = read_alfa(REAL / "carbonZ_2018-10-05-14-34-20_1_no_failure.csv")
+def test_alfa_flu_enu_to_frd_ned(real_data_file):
+    f = read_alfa(real_data_file("carbonZ_2018-10-05-14-34-20_1_no_failure.csv"))
     # level-ish flight: FRD specific force z about -g
     assert -14.0 < np.median(f.acc_frd_mps2[0][:, 2]) < -8.0  # waypoint circuits: load factor ~1.2
     # heading from the ENU->NED conversion agrees with the velocity's course when fast
@@ -73,11 +73,11 @@ def test_alfa_flu_enu_to_frd_ned():
     assert np.median(np.abs(dpsi)) < math.radians(30.0)
 
 
-def test_tlog_reads_back_with_injected_faults(tmp_path):
+def test_tlog_reads_back_with_injected_faults(tmp_path, zipline):
     out = tmp_path / "z.tlog"
-    r = convert_file(ZIP[0], out, inject_imu=lu2016_table2_injector())
+    r = convert_file(zipline, out, inject_imu=lu2016_table2_injector())
     assert out.exists() and not (tmp_path / "z.tlog.tmp").exists()
-    f = read_zipline(ZIP[0])
+    f = read_zipline(zipline)
     k = 0
     with stock_mavutil() as mavutil:
         log = mavutil.mavlink_connection(str(out))

@@ -8,17 +8,17 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize
 
+from gcs_monitor.core.kernels import load_kernels
 from gcs_monitor.filters.airdata_ekf import EkfState, ekf_update
 from gcs_monitor.filters.mhe import (
     IpSettings,
     MheBounds,
     MheWeights,
-    barrier_ip_qp,
     mhe_init,
     mhe_step,
-    riccati_direction,
 )
 from gcs_monitor.models.airdata import AirDataModel
+from tests.reference.mhe import barrier_ip_qp, mhe_step_reference, riccati_direction
 
 
 def _random_lq(rng: np.random.Generator, n: int, n_x: int, n_u: int, n_y: int):  # type: ignore[no-untyped-def]
@@ -33,6 +33,21 @@ def _random_lq(rng: np.random.Generator, n: int, n_x: int, n_u: int, n_y: int): 
     rybar = rng.standard_normal((n, n_y))
     rp = rng.standard_normal((n - 1, n_x))
     return p, a, b, cbar, rbar, qbar, rx, rubar, rybar, rp
+
+
+def _ip_kernel(n, p, q, r, a, b, cm, f, ry, ru, dxl, dxu, dul, duu, ip):  # type: ignore[no-untyped-def]
+    """filters/_mhe_jit.py's Algorithms 1-2 (ip_solve) with barrier_ip_qp's signature."""
+    n_x, n_u = a.shape[1], b.shape[2]
+    dx, du = np.zeros((cm.shape[0], n_x)), np.zeros((cm.shape[0] - 1, n_u))
+    steps = np.zeros(ip.n_kappa * ip.n_qp)
+    load_kernels("gcs_monitor.filters._mhe_jit").ip_solve(
+        n, p, q, r, a, b, cm, f, ry, ru, dxl, dxu, dul, duu, ip.constrained, ip.n_kappa,
+        ip.n_qp, ip.kappa_init, ip.kappa_factor, ip.n_s_max, dx, du, steps)
+    return dx, du, steps
+
+
+# the QP solver of the CMHE step (Wan2018 Algorithms 1-2): the kernel and its numpy reference
+IP_SOLVERS = {"kernel": _ip_kernel, "reference": barrier_ip_qp}
 
 
 def _dense_kkt(p, a, b, cbar, rbar, qbar, rx, rubar, rybar, rp):  # type: ignore[no-untyped-def]
@@ -79,8 +94,10 @@ def test_riccati_direction_equals_dense_kkt(seed: int, n: int) -> None:
     np.testing.assert_allclose(e, e_ref, rtol=1e-9, atol=1e-10)
 
 
-def test_barrier_ip_converges_to_box_qp_solution() -> None:
+@pytest.mark.parametrize("solver", sorted(IP_SOLVERS))
+def test_barrier_ip_converges_to_box_qp_solution(solver: str) -> None:
     """Algorithm 1 with many iterations vs scipy on a small box-constrained QP (42)."""
+    barrier_ip_qp = IP_SOLVERS[solver]
     rng = np.random.default_rng(7)
     n, n_x, n_u, n_y = 3, 2, 2, 2
     p = np.array([1.0, 2.0])
@@ -164,8 +181,11 @@ def test_barrier_ip_converges_to_box_qp_solution() -> None:
     assert cost(np.concatenate([dx2.ravel(), du2.ravel()])) < cost(np.zeros_like(ref.x))
 
 
-def test_unconstrained_qp_is_solved_exactly_in_one_step() -> None:
-    """Without bounds, the first full Newton step solves the QP; later directions vanish."""
+@pytest.mark.parametrize("solver", sorted(IP_SOLVERS))
+def test_unconstrained_qp_is_solved_exactly_in_one_step(solver: str) -> None:
+    """Without bounds, the first full Newton step solves the QP; later directions vanish
+    (Algorithm 2's Riccati recursion against the dense KKT solve)."""
+    barrier_ip_qp = IP_SOLVERS[solver]
     rng = np.random.default_rng(3)
     n, n_x = 3, 4
     a = np.eye(n_x)[None] + 0.1 * rng.standard_normal((n - 1, n_x, n_x))
@@ -287,14 +307,10 @@ class _MethodsOnly:
 
 @pytest.mark.parametrize("horizon_n", [1, 3, 5])
 @pytest.mark.parametrize("model_kind", ["airdata", "methods_only"])
-def test_compiled_kernel_matches_numpy_reference(horizon_n: int, model_kind: str) -> None:
+def test_kernel_matches_numpy_reference(horizon_n: int, model_kind: str) -> None:
     """filters/_mhe_jit.py (+ the model's compiled linearisation, or its methods) against the
-    numpy reference: CAS runaway into the wind bounds, a lost CAS sample (NaN, masked) and a
-    bounds change that forces the interior clip."""
-    from gcs_monitor.filters.mhe import compiled_kernel
-
-    if compiled_kernel() is None:
-        pytest.skip("numba not installed")
+    numpy reference (tests/reference/mhe.py): CAS runaway into the wind bounds, a lost CAS
+    sample (NaN, masked) and a bounds change that forces the interior clip."""
     model = AirDataModel() if model_kind == "airdata" else _MethodsOnly()
     theta = np.array([130.0, 0.05, 0.0, 0.5, -9.79, 1500.0])
     x0 = np.array([0.05, 130.0, 0.0, 0.0])
@@ -322,9 +338,9 @@ def test_compiled_kernel_matches_numpy_reference(horizon_n: int, model_kind: str
             th = theta + np.array([0.1 * k, 0.0, 0.0, 0.0, 0.0, 1.0 * k])
             bnd = b_wide if k < 25 else b_tight
             out = []
-            for s, compiled in ((s_py, False), (s_nb, True)):
-                ip = IpSettings(constrained=constrained, compiled=compiled)
-                out.append(mhe_step(s, model, y, mask, th, 0.05, w, bnd, ip))
+            ip = IpSettings(constrained=constrained)
+            for s, step in ((s_py, mhe_step_reference), (s_nb, mhe_step)):
+                out.append(step(s, model, y, mask, th, 0.05, w, bnd, ip))
             (s_py, i_py), (s_nb, i_nb) = out
             assert s_nb.n == s_py.n
             n = s_py.n

@@ -6,7 +6,11 @@ import numpy as np
 import pytest
 
 from gcs_monitor.filters.covariance import is_psd
-from gcs_monitor.filters.otsekf import OtsekfPrediction, _kernels, otsekf_init, otsekf_step
+from gcs_monitor.filters.otsekf import OtsekfPrediction, otsekf_init, otsekf_step
+from tests.reference.otsekf import otsekf_step_reference
+
+# the kernel (filters/_otsekf_jit.py) and its numpy reference (tests/reference/otsekf.py)
+STEPS = {"kernel": otsekf_step, "reference": otsekf_step_reference}
 
 
 def _spd(rng: np.random.Generator, n: int, scale: float) -> np.ndarray:
@@ -15,7 +19,7 @@ def _spd(rng: np.random.Generator, n: int, scale: float) -> np.ndarray:
 
 
 def _run_pair(
-    seed: int, n: int = 3, b: int = 2, m: int = 3, steps: int = 60, compiled: bool = False
+    seed: int, n: int = 3, b: int = 2, m: int = 3, steps: int = 60, step: str = "reference"
 ) -> None:
     rng = np.random.default_rng(seed)
     Phi = np.eye(n) + 0.05 * rng.normal(size=(n, n))
@@ -39,9 +43,7 @@ def _run_pair(
         pred = OtsekfPrediction(
             x_bar_prop=Phi @ s.x_bar, Phi=Phi, B=B, Qx=Qx, Qxmu=Qxmu, Qmu=Qmu
         )
-        s, innov = otsekf_step(
-            s, pred, lambda x: (H @ x, H), y, R, gate_sigma=3.0, compiled=compiled
-        )
+        s, innov = STEPS[step](s, pred, lambda x: (H @ x, H), y, R, gate_sigma=3.0)
         assert innov.numerics_ok
         xa = A @ xa
         Pa = A @ Pa @ A.T + Qaug
@@ -61,10 +63,10 @@ def _run_pair(
         assert is_psd(s.P_bar) and is_psd(s.P_mu)
 
 
-@pytest.mark.parametrize("compiled", [False, True])
-def test_two_stage_equals_augmented_kf_correlated_noise(compiled: bool) -> None:
+@pytest.mark.parametrize("step", sorted(STEPS))
+def test_two_stage_equals_augmented_kf_correlated_noise(step: str) -> None:
     for seed in range(5):
-        _run_pair(seed, compiled=compiled)
+        _run_pair(seed, step=step)
 
 
 def test_two_stage_equals_augmented_kf_drift_parametrisation() -> None:
@@ -95,8 +97,8 @@ def test_two_stage_equals_augmented_kf_drift_parametrisation() -> None:
         np.testing.assert_allclose(s.mu, xa[n:], rtol=1e-7, atol=1e-10)
 
 
-@pytest.mark.parametrize("compiled", [False, True])
-def test_test_ratio_and_numerics_flag(compiled: bool) -> None:
+@pytest.mark.parametrize("step", sorted(STEPS))
+def test_test_ratio_and_numerics_flag(step: str) -> None:
     n = 2
     H = np.eye(n)
     R = np.eye(n)
@@ -105,26 +107,22 @@ def test_test_ratio_and_numerics_flag(compiled: bool) -> None:
         x_bar_prop=s.x_bar, Phi=np.eye(n), B=np.eye(n), Qx=np.zeros((n, n)),
         Qxmu=np.zeros((n, n)), Qmu=np.zeros((n, n)),
     )
-    s1, innov = otsekf_step(
-        s, pred, lambda x: (H @ x, H), np.array([6.0, 0.0]), R, gate_sigma=2.0, compiled=compiled
-    )
+    s1, innov = STEPS[step](s, pred, lambda x: (H @ x, H), np.array([6.0, 0.0]), R, gate_sigma=2.0)
     # innovation covariance: P + R + B Pmu B^T = 3 I; ratio = 36 / (4 * 3) = 3
     np.testing.assert_allclose(innov.test_ratio, [3.0, 0.0], rtol=1e-12)
     assert innov.rejected.tolist() == [True, False]
-    s2, bad = otsekf_step(
-        s1, pred, lambda x: (H @ x, H), np.array([np.nan, 0.0]), R, gate_sigma=2.0,
-        compiled=compiled,
-    )  # fmt: skip
+    s2, bad = STEPS[step](
+        s1, pred, lambda x: (H @ x, H), np.array([np.nan, 0.0]), R, gate_sigma=2.0
+    )
     assert not bad.numerics_ok
     assert s2 is s1  # the state is returned unchanged on a failure
     assert np.all(np.isnan(bad.nu))
 
 
-def test_compiled_and_reference_paths_agree_nonlinear() -> None:
-    """The numba kernels implement the reference equation by equation: on a nonlinear
-    measurement with a wrapped angle and correlated noise blocks, 50 steps agree to round-off."""
-    if _kernels() is None:
-        pytest.skip("numba not installed")
+def test_kernel_matches_numpy_reference_nonlinear() -> None:
+    """The numba kernels implement the reference (tests/reference/otsekf.py) equation by
+    equation: on a nonlinear measurement with a wrapped angle and correlated noise blocks, 50
+    steps agree to round-off."""
     rng = np.random.default_rng(5)
     n, b, m = 4, 3, 3
     Phi = np.eye(n) + 0.05 * rng.normal(size=(n, n))
@@ -146,14 +144,12 @@ def test_compiled_and_reference_paths_agree_nonlinear() -> None:
     for _ in range(50):
         y = rng.normal(size=m) + np.array([0.0, 0.0, 3.0])  # third channel near the +-pi wrap
         out = []
-        for s, compiled in ((s_py, False), (s_nb, True)):
+        for s, step in ((s_py, otsekf_step_reference), (s_nb, otsekf_step)):
             pred = OtsekfPrediction(
                 x_bar_prop=np.tanh(Phi @ s.x_bar), Phi=Phi, B=B,
                 Qx=Qaug[:n, :n], Qxmu=Qaug[:n, n:], Qmu=Qaug[n:, n:],
             )  # fmt: skip
-            out.append(
-                otsekf_step(s, pred, meas, y, R, gate_sigma=3.0, wrap_idx=(2,), compiled=compiled)
-            )
+            out.append(step(s, pred, meas, y, R, gate_sigma=3.0, wrap_idx=(2,)))
         (s_py, i_py), (s_nb, i_nb) = out
         assert i_py.numerics_ok and i_nb.numerics_ok
         # same operations in a different summation order (loops vs BLAS): round-off only

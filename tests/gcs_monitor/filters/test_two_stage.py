@@ -14,6 +14,7 @@ from gcs_monitor.filters.ekf import EkfState, ekf_predict, ekf_update
 from gcs_monitor.filters.two_stage import (
     TwoStageConfig,
     TwoStageNoise,
+    _step_numpy,
     adapt_qf,
     discretise_series,
     two_stage_init,
@@ -24,6 +25,16 @@ NO_ADAPT = TwoStageConfig(adapt=False)
 
 
 DT = 0.01
+
+
+def numpy_step(s, model, u_prev, u_now, y, dt_s, noise, cfg):  # type: ignore[no-untyped-def]
+    """two_stage_step through the numpy path (LAPACK solves, numpy adaptation) at every step:
+    what the filter runs in its iterated first steps (two_stage module docstring)."""
+    return _step_numpy(s, model, u_prev, u_now, y, dt_s, noise, cfg, discretise_series)
+
+
+# the non-iterated step: the kernels (filters/_two_stage_jit.py) and the numpy path
+STEPS = {"kernel": two_stage_step, "numpy": numpy_step}
 
 
 @dataclass(frozen=True)
@@ -70,8 +81,8 @@ def _random_lti(rng: np.random.Generator, n: int, b: int, m: int) -> LinearModel
     )
 
 
-@pytest.mark.parametrize("compiled", [False, True])
-def test_two_stage_equals_augmented_kf_on_lti_with_constant_bias(compiled: bool) -> None:
+@pytest.mark.parametrize("path", sorted(STEPS))
+def test_two_stage_equals_augmented_kf_on_lti_with_constant_bias(path: str) -> None:
     """Hsieh & Chen (1999): with Q^{xf} = 0, V_0 = 0 and P^f invertible, the two-stage filter is
     an exact algebraic reorganisation of the augmented-state KF. Both run the same recursion in
     float64, so they differ only by round-off: rtol 1e-9 is tight on purpose (any missing
@@ -95,7 +106,7 @@ def test_two_stage_equals_augmented_kf_on_lti_with_constant_bias(compiled: bool)
     Ca = np.hstack([mod.C, np.zeros((m, b))])
     a = EkfState(x=np.zeros(n + b), P=np.block([[P0, np.zeros((n, b))], [np.zeros((b, n)), Pf0]]))
     u_prev = np.zeros(b)
-    cfg = TwoStageConfig(adapt=False, compiled=compiled, n_iterated_steps=0)
+    cfg = TwoStageConfig(adapt=False, n_iterated_steps=0)
     for _k in range(200):
         u = rng.normal(size=b)
         x_true = (
@@ -104,7 +115,7 @@ def test_two_stage_equals_augmented_kf_on_lti_with_constant_bias(compiled: bool)
             + Gam @ (f_true + rng.normal(size=b) * np.sqrt(np.diag(Q)))
         )
         y = mod.C @ x_true + rng.normal(size=m) * np.sqrt(np.diag(R))
-        s, innov = two_stage_step(s, mod, u_prev, u, y, DT, noise, cfg)
+        s, innov = STEPS[path](s, mod, u_prev, u, y, DT, noise, cfg)
         za = Aa @ a.x + np.concatenate([mod.B @ u_prev, np.zeros(b)])
         a = ekf_predict(a, za, Aa, Qa)
         a, innov_a = ekf_update(a, y, Ca @ a.x, Ca, R, gate_sigma=3.0)
@@ -168,16 +179,10 @@ def test_iteration_leaves_linear_update_unchanged() -> None:
     a, _ = two_stage_step(
         s0, mod, np.ones(1), np.ones(1), y, DT, noise, TwoStageConfig(adapt=False)
     )
-    b, _ = two_stage_step(
-        s0,
-        mod,
-        np.ones(1),
-        np.ones(1),
-        y,
-        DT,
-        noise,
-        TwoStageConfig(adapt=False, n_iterated_steps=0, compiled=False),
-    )
+    b, _ = numpy_step(
+        s0, mod, np.ones(1), np.ones(1), y, DT, noise,
+        TwoStageConfig(adapt=False, n_iterated_steps=0),
+    )  # fmt: skip
     np.testing.assert_allclose(a.x, b.x, rtol=1e-12, atol=1e-14)
 
 
@@ -234,9 +239,10 @@ def test_covariances_stay_symmetric_psd(seed: int, adapt: bool, scale: float) ->
             assert is_psd(P, tol=1e-9 * np.max(np.abs(P)))
 
 
-def test_compiled_and_reference_paths_agree_on_gs_km() -> None:
-    """The numba kernels implement the same equations: ATSEKF on the nonlinear GS-KM over 300
-    steps (adaptation active) must agree with the numpy path to round-off (1e-9 relative)."""
+def test_kernel_and_numpy_paths_agree_on_gs_km() -> None:
+    """The kernels and the numpy path chain the same equation segments around different
+    Cholesky solves and adaptation sums (two_stage module docstring): ATSEKF on the nonlinear
+    GS-KM over 300 steps (adaptation active) must agree to round-off (1e-9 relative)."""
     from gcs_monitor.models.kinematics import GsKm
 
     rng = np.random.default_rng(4)
@@ -253,8 +259,8 @@ def test_compiled_and_reference_paths_agree_on_gs_km() -> None:
         x = mdl.propagate(x, u, u, DT)
         um = u + f_true + rng.normal(size=6) * np.sqrt(np.diag(Q))
         y = x + rng.normal(size=6) * np.sqrt(np.diag(R))
-        sa, ia = two_stage_step(sa, mdl, um, um, y, DT, noise, TwoStageConfig(compiled=True))
-        sb, ib = two_stage_step(sb, mdl, um, um, y, DT, noise, TwoStageConfig(compiled=False))
+        sa, ia = two_stage_step(sa, mdl, um, um, y, DT, noise, TwoStageConfig())
+        sb, ib = numpy_step(sb, mdl, um, um, y, DT, noise, TwoStageConfig())
         assert ia.numerics_ok and ib.numerics_ok
     np.testing.assert_allclose(sa.x, sb.x, rtol=1e-9, atol=1e-9)
     np.testing.assert_allclose(sa.f, sb.f, rtol=1e-7, atol=1e-9)
@@ -267,12 +273,11 @@ def test_packed_step_equals_compiled_step_bitwise(adapt: bool) -> None:
     """PackedTwoStage (one kernel on a packed state, the estimator hot path) makes exactly the
     calls of the compiled two_stage_step for h(x) = x: identical numbers, not just close."""
     from gcs_monitor.core.atmosphere import gravity_mps2
+    from gcs_monitor.core.kernels import load_kernels
     from gcs_monitor.filters.two_stage import PackedTwoStage
-    from gcs_monitor.models.kinematics import GsKm, compiled_gs_km
+    from gcs_monitor.models.kinematics import GsKm
 
-    kin = compiled_gs_km()
-    if kin is None or not PackedTwoStage.available():
-        pytest.skip("numba not installed")
+    kin = load_kernels("gcs_monitor.models._kinematics_jit")
     rng = np.random.default_rng(5)
     lat, alt = 0.9, 500.0
     mdl = GsKm(lat, alt)

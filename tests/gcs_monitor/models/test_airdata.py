@@ -21,9 +21,9 @@ from gcs_monitor.models.airdata import (
     airdata_h_jac_x,
     airdata_initial_state,
     cas_from_tas_with_derivative,
-    compiled_kernels,
     envelope_bounds,
 )
+from tests.reference import airdata as ref
 
 P = AirDataModelParams()
 
@@ -141,11 +141,11 @@ def test_initial_state_inverts_the_output() -> None:
 
 
 @pytest.mark.parametrize("lateral", [False, True])
-def test_compiled_horizon_linearisation_matches_methods(lateral: bool) -> None:
-    """models/_airdata_jit.py: A, B, defects, masked C and r_y over a horizon equal the numpy
-    methods node by node (Wan2018 eq. 42), with one output masked."""
-    if compiled_kernels() is None:
-        pytest.skip("numba not installed")
+def test_kernel_horizon_linearisation_matches_reference(lateral: bool) -> None:
+    """models/_airdata_jit.py: A, B, masked C and r_y over a horizon (Wan2018 eq. 42) equal the
+    plain-float reference (tests/reference/airdata.py) node by node, with one output masked;
+    the defects equal the Python transition airdata_f (its own rounding of the eq. 8 term,
+    _airdata_jit module docstring)."""
     rng = np.random.default_rng(4)
     model = AirDataModel()
     big_n, n = 4, 3
@@ -165,18 +165,39 @@ def test_compiled_horizon_linearisation_matches_methods(lateral: bool) -> None:
     a, b, f, cm, ry = out
     for i in range(n):
         # same expressions in the same order: a few ulp
-        np.testing.assert_allclose(cm[i], model.h_jac_x(x_lin[i], th[i]) * mk[i][:, None],
+        np.testing.assert_allclose(cm[i], ref.airdata_h_jac_x(x_lin[i], th[i]) * mk[i][:, None],
                                    rtol=1e-13, atol=1e-13)  # fmt: skip
-        np.testing.assert_allclose(ry[i], (ym[i] - model.h(x_lin[i], th[i])) * mk[i],
+        np.testing.assert_allclose(ry[i], (ym[i] - ref.airdata_h(x_lin[i], th[i])) * mk[i],
                                    rtol=1e-12, atol=1e-11)  # fmt: skip
         if i < n - 1:
-            np.testing.assert_allclose(a[i], model.f_jac_x(x_lin[i], u_lin[i], th[i], dts[i]),
+            np.testing.assert_allclose(a[i], ref.airdata_f_jac_x(x_lin[i], th[i], dts[i], P,
+                                                                 u_lin[i]),
                                        rtol=1e-13, atol=1e-15)  # fmt: skip
-            np.testing.assert_array_equal(b[i], model.f_jac_u(x_lin[i], u_lin[i], th[i], dts[i]))
+            np.testing.assert_array_equal(b[i], ref.airdata_f_jac_u(dts[i], x_lin[i], th[i], P))
             f_ref = model.f(x_lin[i], u_lin[i], th[i], dts[i]) - x_lin[i + 1]
             np.testing.assert_allclose(f[i], f_ref, rtol=1e-12, atol=1e-11)
     # rows from n on are left untouched
     assert not np.any(cm[n:]) and not np.any(ry[n:]) and not np.any(a[n - 1 :])
+
+
+@pytest.mark.parametrize("lateral", [False, True])
+def test_model_functions_match_reference(lateral: bool) -> None:
+    """The model functions (wrapping the kernels) against the plain-float reference: the same
+    expressions in the same order, identical numbers."""
+    rng = np.random.default_rng(6)
+    for _ in range(50):
+        x, th = _random_point(rng, lateral)
+        u = rng.standard_normal(4)
+        for p in (P, AirDataModelParams(wind_accel_in_alpha=False)):
+            np.testing.assert_array_equal(airdata_f_jac_x(x, th, 0.05, p, u),
+                                          ref.airdata_f_jac_x(x, th, 0.05, p, u))
+            np.testing.assert_array_equal(airdata_f_jac_u(0.05, x, th, p),
+                                          ref.airdata_f_jac_u(0.05, x, th, p))
+        np.testing.assert_array_equal(airdata_f_jac_u(0.05), ref.airdata_f_jac_u(0.05))
+        np.testing.assert_array_equal(airdata_h(x, th), ref.airdata_h(x, th))
+        np.testing.assert_array_equal(airdata_h_jac_x(x, th), ref.airdata_h_jac_x(x, th))
+        assert (cas_from_tas_with_derivative(x[1], th[5])
+                == ref.cas_from_tas_with_derivative(x[1], th[5]))
 
 
 # ------------------------------------------------------------------------------------------

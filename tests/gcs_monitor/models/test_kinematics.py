@@ -169,27 +169,37 @@ def test_propagate_is_second_order() -> None:
     assert 6.0 < ratio < 10.0  # local error of Heun is O(dt^3): halving dt divides it by ~8
 
 
-def test_compiled_gs_km_equals_reference_bitwise() -> None:
-    """The numba GS-KM (_kinematics_jit) evaluates the same expressions in the same order as the
-    plain-float reference: identical propagation and Jacobians (signed zeros included)."""
+def test_kernel_gs_km_equals_reference_bitwise() -> None:
+    """The GS-KM kernel (models/_kinematics_jit.py, which GsKm and gs_km_* wrap) evaluates the
+    same expressions in the same order as the plain-float reference (tests/reference/
+    kinematics.py): identical rates, propagation and Jacobians (signed zeros included)."""
     from gcs_monitor.core.atmosphere import gravity_mps2
-    from gcs_monitor.models.kinematics import GsKm, compiled_gs_km
+    from gcs_monitor.core.kernels import load_kernels
+    from gcs_monitor.models.kinematics import GsKm
+    from tests.reference import kinematics as ref
 
-    kin = compiled_gs_km()
-    if kin is None:
-        pytest.skip("numba not installed")
+    kin = load_kernels("gcs_monitor.models._kinematics_jit")
     rng = np.random.default_rng(11)
     for _ in range(100):
         x = rng.normal(size=6) * [50.0, 50.0, 5.0, 0.5, 0.3, 3.0]
         u0 = rng.normal(size=6) * [3.0, 3.0, 10.0, 0.3, 0.3, 0.3]
         u1 = u0 + rng.normal(size=6) * 0.01
         lat, alt = rng.uniform(-1.2, 1.2), rng.uniform(0.0, 5000.0)
-        mdl = GsKm(lat, alt)
-        F, G = mdl.jacobians(x, u0)
-        F2, G2, xp2 = np.zeros((6, 6)), np.zeros((6, 6)), np.zeros(6)
+        F, G = ref.jacobians(x, u0, lat, alt)
+        F2, G2, xp2, r2 = np.zeros((6, 6)), np.zeros((6, 6)), np.zeros(6), np.zeros(6)
         kin.jacobians(x, u0, lat, alt, F2, G2)
         kin.propagate(x, u0, u1, lat, alt, gravity_mps2(lat, alt), 0.01, xp2)
+        kin.rates(x, u0, lat, alt, gravity_mps2(lat, alt), r2)
         np.testing.assert_array_equal(F, F2)
         np.testing.assert_array_equal(G, G2)
         np.testing.assert_array_equal(np.signbit(G), np.signbit(G2))
+        np.testing.assert_array_equal(ref.propagate(x, u0, u1, lat, alt, 0.01), xp2)
+        np.testing.assert_array_equal(ref.gs_km_rates(list(x), list(u0), lat, alt,
+                                                      gravity_mps2(lat, alt)), r2)
+        # and the wrappers return the kernel's numbers
+        mdl = GsKm(lat, alt)
+        F3, G3 = mdl.jacobians(x, u0)
+        np.testing.assert_array_equal(np.signbit(G3), np.signbit(G2))
+        np.testing.assert_array_equal(F3, F2)
         np.testing.assert_array_equal(mdl.propagate(x, u0, u1, 0.01), xp2)
+        np.testing.assert_array_equal(km.gs_km_f(x, u0, lat, alt), r2)

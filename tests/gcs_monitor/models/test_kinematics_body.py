@@ -14,7 +14,6 @@ from gcs_monitor.models.kinematics_body import (
     body_gs_meas_jac,
     body_gs_measurement,
     body_gs_noise_matrix,
-    compiled_kernels,
     drift_rate_to_fault,
     fault_estimate_matrix,
     fault_from_drift_rate,
@@ -22,6 +21,7 @@ from gcs_monitor.models.kinematics_body import (
     own_drift_gain,
 )
 from tests.helpers.imu_synth_body import truth_at, turn_truth_at
+from tests.reference import kinematics_body as ref
 
 G = 9.81
 
@@ -171,10 +171,17 @@ def test_steady_coordinated_turn_exact_kinematics_and_fault_map() -> None:
 
 def test_body_model_is_flat_nonrotating_limit_of_gs_km(monkeypatch: pytest.MonkeyPatch) -> None:
     """Eqs. 9-14 = the verified GS-KM (Lu2016 eq. 11, kinematics.py) with no earth rate and an
-    infinite radius, rotated into body axes: d(C^T v)/dt = C^T v_ned' - omega x v_b."""
+    infinite radius, rotated into body axes: d(C^T v)/dt = C^T v_ned' - omega x v_b.
+
+    The GS-KM here is its plain-float reference (tests/reference/kinematics.py, equal to the
+    kernel bit for bit), which reads the earth constants at call time; the kernel has them
+    compiled in."""
     from gcs_monitor.core import constants
     from gcs_monitor.core.atmosphere import gravity_mps2
-    from gcs_monitor.models.kinematics import gs_km_f
+    from tests.reference.kinematics import gs_km_rates
+
+    def gs_km_f(x: np.ndarray, u: np.ndarray, lat: float, alt: float) -> np.ndarray:
+        return np.array(gs_km_rates(list(x), list(u), lat, alt, gravity_mps2(lat, alt)))
 
     monkeypatch.setattr(constants, "EARTH_RATE_RADPS", 0.0)
     monkeypatch.setattr(constants, "EARTH_RADIUS_M", 1.0e15)
@@ -204,11 +211,13 @@ def test_synthetic_truth_obeys_fault_free_model() -> None:
     assert math.isfinite(float(x[0]))
 
 
-def test_compiled_model_matches_numpy_reference() -> None:
-    """models/_kinematics_body_jit.py writes the same equations: equal to round-off."""
-    kb = compiled_kernels()
-    if kb is None:
-        pytest.skip("numba not installed")
+def test_kernel_matches_numpy_reference() -> None:
+    """models/_kinematics_body_jit.py (which the model functions wrap) writes the same
+    equations as the plain-float reference (tests/reference/kinematics_body.py): equal to
+    round-off."""
+    from gcs_monitor.core.kernels import load_kernels
+
+    kb = load_kernels("gcs_monitor.models._kinematics_body_jit")
     rng = np.random.default_rng(8)
     for _ in range(20):
         x, u_m, f_hat = _random_case(rng)
@@ -220,16 +229,16 @@ def test_compiled_model_matches_numpy_reference() -> None:
         kb.measurement(x, h, H)
         # identical expressions in the same order: a few ulp at most
         tol = {"rtol": 1e-13, "atol": 1e-12}
-        np.testing.assert_allclose(out, body_gs_derivative(x, u_m, f_hat, G), **tol)
-        np.testing.assert_allclose(F, body_gs_jac_x(x, u_m, f_hat, G), **tol)
-        np.testing.assert_allclose(Gm, body_gs_noise_matrix(x), **tol)
-        np.testing.assert_allclose(h, body_gs_measurement(x), **tol)
-        np.testing.assert_allclose(H, body_gs_meas_jac(x), **tol)
+        np.testing.assert_allclose(out, ref.body_gs_derivative(x, u_m, f_hat, G), **tol)
+        np.testing.assert_allclose(F, ref.body_gs_jac_x(x, u_m, f_hat, G), **tol)
+        np.testing.assert_allclose(Gm, ref.body_gs_noise_matrix(x), **tol)
+        np.testing.assert_allclose(h, ref.body_gs_measurement(x), **tol)
+        np.testing.assert_allclose(H, ref.body_gs_meas_jac(x), **tol)
         r = np.concatenate([rng.uniform(-3, 3, 3), rng.uniform(-0.1, 0.1, 3)])
         ff = np.empty(6)
         kb.fault_from_drift_rate(r, x, ff)
-        np.testing.assert_allclose(ff, fault_from_drift_rate(r, x), **tol)
+        np.testing.assert_allclose(ff, ref.fault_from_drift_rate(r, x), **tol)
         mu, mu_prev, f_int = rng.normal(size=6), rng.normal(size=6), rng.normal(size=6)
-        f_int_ref = f_int + fault_from_drift_rate(mu - mu_prev, x)
+        f_int_ref = f_int + ref.fault_from_drift_rate(mu - mu_prev, x)
         kb.fault_integral_step(x, mu, mu_prev, f_int)
         np.testing.assert_allclose(f_int, f_int_ref, **tol)

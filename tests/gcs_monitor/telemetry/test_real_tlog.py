@@ -1,5 +1,6 @@
 """Real-data smoke test: the dronekit ArduCopter tlog (MAVLink 1, noisy radio, a reboot) decodes
-and assembles without exception (numbers from /work/shared/data/real/README.md)."""
+and assembles without exception (numbers from shared/data/real/README.md; the folder is found by
+the ``real_data_file`` fixture, tests/conftest.py)."""
 
 from __future__ import annotations
 
@@ -12,17 +13,21 @@ from gcs_monitor.link.decode import Decoder
 from gcs_monitor.link.transports import TlogSource
 from gcs_monitor.telemetry.assembler import FrameAssembler, input_availability
 
-TLOG = Path("/work/shared/data/real/dronekit_flight_replay_copter.tlog")
-pytestmark = pytest.mark.skipif(not TLOG.exists(), reason="shared real data not mounted")
+TLOG = "dronekit_flight_replay_copter.tlog"  # in the real-data folder
 
 
 @pytest.fixture(scope="module")
-def replay():
+def tlog(real_data_file) -> Path:
+    return real_data_file(TLOG)
+
+
+@pytest.fixture(scope="module")
+def replay(tlog):
     d = Decoder()
     asm: dict[int, FrameAssembler] = {}
     frames = []
     progress: list[int] = []
-    src = TlogSource(TLOG, on_progress=lambda done, total: progress.append(done))
+    src = TlogSource(tlog, on_progress=lambda done, total: progress.append(done))
     for data, wall in src:
         for m in d.feed(data, wall):
             s = m._header.srcSystem
@@ -33,13 +38,13 @@ def replay():
     return d, asm, frames, progress, src
 
 
-def test_decodes_with_the_known_bad_data(replay):
+def test_decodes_with_the_known_bad_data(replay, tlog):
     d, asm, frames, progress, src = replay
     # README: 1314 BAD_DATA chunks (CRC failures of GCS msg 142); resync may find a few more
     assert 1314 <= d.counters.parse_errors <= 1314 + 20
     assert d.vehicles() == [1]  # 255 is the GCS, 51 the radio (no vehicle heartbeat)
     assert d.stats[1].per_type["ATTITUDE"] > 2800
-    assert progress[-1] == TLOG.stat().st_size
+    assert progress[-1] == tlog.stat().st_size
     assert 0 < src.truncated_bytes < 300  # the file itself ends inside its last record
 
 

@@ -18,6 +18,7 @@ from gcs_monitor.models.servo import (
 )
 from sim_vehicle.actuators.faults import ActuatorFault, apply_to_valve, fault_effect
 from sim_vehicle.actuators.servo_bank import ActuatorGeometry, ServoBank
+from tests.reference import servo_bank as ref
 
 GEO = ActuatorGeometry(rod_gain_radpm=5.0, rod_stroke_m=0.1)
 DT = 0.01
@@ -58,11 +59,12 @@ def test_ndi_inverts_the_plant() -> None:
     assert math.isclose(yddd, nu, rel_tol=1e-9)
 
 
-def test_bank_closure_matches_model_functions() -> None:
-    bank = ServoBank(GEO, (0.0, 0.0, 0.0))
-    p, lp = bank.p, bank.lp
+def test_reference_closure_matches_model_functions() -> None:
+    """The kernel's plain-float reference (tests/reference/servo_bank.py) against the model in
+    the paper's form (gcs_monitor.models.servo, eqs. 4, 13 and the reference model)."""
+    p, lp = ServoParams(), ServoLoopParams()
     s = (0.01, 0.02, 0.003, 0.015, 0.01, 0.2)
-    got = bank._f(*s, 0.03, 0.0, None)
+    got = ref.make_deriv(p, lp)(*s, 0.03, 0.0, None)
     r = reference_model_derivative(s[3], s[4], s[5], 0.03, lp)
     u = ndi_control(s[0], s[1], s[2], (s[3], s[4], s[5], r[2]), p, lp)
     want = (*servo_derivative(s[0], s[1], s[2], u, p), *r)
@@ -163,29 +165,8 @@ def test_stalled_pressure_balances_leakage() -> None:
     assert stalled_pressure(-1.0, p) == pytest.approx(-x3)
 
 
-def _reference_step(bank: ServoBank, x: list[list[float]], t_s: float, cmd: tuple) -> None:
-    """The plain-Python RK4 of one bank step (no jam), using the closure ``bank._f``."""
-    stroke, gain = GEO.rod_stroke_m, GEO.rod_gain_radpm
-    for i in range(3):
-        q_com = max(-stroke, min(stroke, cmd[i] / gain))
-        eff = fault_effect(bank.faults, i, t_s) if bank._faulted[i] else None
-        bias = eff.sensor_bias_m if eff is not None else 0.0
-        s = x[i]
-        k1 = bank._f(*s, q_com, bias, eff)
-        k2 = bank._f(*(a + 0.5 * DT * b for a, b in zip(s, k1, strict=True)), q_com, bias, eff)
-        k3 = bank._f(*(a + 0.5 * DT * b for a, b in zip(s, k2, strict=True)), q_com, bias, eff)
-        k4 = bank._f(*(a + DT * b for a, b in zip(s, k3, strict=True)), q_com, bias, eff)
-        for j in range(6):
-            s[j] = s[j] + DT / 6.0 * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j])
-        if abs(s[0]) > stroke:
-            s[0] = math.copysign(stroke, s[0])
-            s[1] = 0.0
-            u_end = eff.runaway_dir if eff is not None else 0.0
-            if u_end * s[0] > 0.0:
-                s[2] = stalled_pressure(u_end, bank.p)
-
-
-def test_compiled_bank_step_matches_python_rk4() -> None:
+def test_kernel_bank_step_matches_reference_rk4() -> None:
+    """_servo_jit.step_bank against the plain-float RK4 of tests/reference/servo_bank.py."""
     # Faults on all three surfaces (OFC added / replaced, runaway into the stop).
     faults = (
         ActuatorFault(surface=0, kind="liquid_ofc", t_start_s=0.1, amplitude=0.05,
@@ -195,14 +176,42 @@ def test_compiled_bank_step_matches_python_rk4() -> None:
                       frequency_hz=3.0),
     )
     bank = ServoBank(GEO, (0.01, -0.02, 0.0), faults=faults)
-    ref = [list(row) for row in bank.x.tolist()]
+    x_ref = [list(row) for row in bank.x.tolist()]
+    deriv = ref.make_deriv(bank.p, bank.lp)
+
+    def ref_step(bank: ServoBank, x: list[list[float]], t_s: float, cmd: tuple) -> None:
+        ref.rk4_bank_step(deriv, bank.p, bank.faults, GEO.rod_stroke_m, GEO.rod_gain_radpm, x,
+                          t_s, DT, cmd)
+
     hit_stop = False
     for k in range(100):
         t = k * DT
         cmd = (0.1 * math.sin(3.0 * t), -0.05, 0.2 * math.cos(2.0 * t))
-        _reference_step(bank, ref, t, cmd)
+        ref_step(bank, x_ref, t, cmd)
         bank.step(t, DT, cmd)
-        np.testing.assert_allclose(bank.x, np.array(ref), rtol=1e-10, atol=1e-13)
+        np.testing.assert_allclose(bank.x, np.array(x_ref), rtol=1e-10, atol=1e-13)
         hit_stop |= bank.rod_m(1) == GEO.rod_stroke_m
     assert hit_stop  # the runaway reached the stop inside the compared window
     assert bank.deflection_rad(1) == GEO.rod_gain_radpm * GEO.rod_stroke_m
+
+
+def test_kernel_jam_step_matches_reference() -> None:
+    """_servo_jit.jam_step (solid jam: rod frozen, reference model running) against the
+    reference: the same operations, identical numbers."""
+    jam = ActuatorFault(surface=1, kind="solid_jam", t_start_s=0.2)
+    bank = ServoBank(GEO, (0.0, 0.0, 0.0), faults=(jam,))
+    deriv = ref.make_deriv(bank.p, bank.lp)
+    x_ref: list[float] | None = None
+    jam_pos = 0.0
+    for k in range(60):
+        t = k * DT
+        cmd = (0.0, 0.2 * math.sin(4.0 * t), 0.0)
+        if k == 20:
+            x_ref, jam_pos = bank.x[1].tolist(), float(bank.x[1][0])
+        if x_ref is not None:
+            q_com = max(-GEO.rod_stroke_m, min(GEO.rod_stroke_m, cmd[1] / GEO.rod_gain_radpm))
+            ref.jam_step(deriv, x_ref, q_com, fault_effect(bank.faults, 1, t), DT, jam_pos)
+        bank.step(t, DT, cmd)
+        if x_ref is not None:
+            np.testing.assert_array_equal(bank.x[1], x_ref)
+    assert x_ref is not None and x_ref[3] != jam_pos  # the reference model kept moving

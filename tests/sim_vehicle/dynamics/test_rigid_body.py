@@ -12,15 +12,12 @@ from scipy.spatial.transform import Rotation
 from gcs_monitor.core import atmosphere as atm
 from gcs_monitor.core.constants import EARTH_RADIUS_M, EARTH_RATE_RADPS
 from gcs_monitor.core.frames import dcm_from_quat, quat_from_euler
+from gcs_monitor.core.kernels import load_kernels
 from sim_vehicle.autopilot.trim import level_state, trim_level
 from sim_vehicle.dynamics.airframe import load_airframe
-from sim_vehicle.dynamics.rigid_body import (
-    RigidBody,
-    dcm_from_quat_fast,
-    gravity_fast,
-    isa_density_fast,
-)
+from sim_vehicle.dynamics.rigid_body import RigidBody, dcm_from_quat_fast, gravity_fast
 from sim_vehicle.physics import euler_from_quat
+from tests.reference import rigid_body as ref
 
 
 def _euler_rates_lu2016(x: list[float], *, as_printed: bool = False) -> np.ndarray:
@@ -126,8 +123,9 @@ def test_dcm_and_euler_agree_with_scipy() -> None:
 
 
 def test_fast_helpers_equal_core() -> None:
+    rbj = load_kernels("sim_vehicle.dynamics._rigid_body_jit")
     for h in (0.0, 1000.0, 9000.0):
-        assert math.isclose(isa_density_fast(h), atm.isa_density_kgpm3(h), rel_tol=1e-12)
+        assert math.isclose(rbj.isa_density(h), atm.isa_density_kgpm3(h), rel_tol=1e-12)
         for lat in (0.0, 0.7, -1.2):
             assert math.isclose(gravity_fast(lat, h), atm.gravity_mps2(lat, h), rel_tol=1e-12)
 
@@ -171,10 +169,10 @@ def _random_state(rng: np.random.Generator, tas: float) -> list[float]:
 
 
 @pytest.mark.parametrize("name", ["uav", "transport"])
-def test_compiled_kernel_matches_python_evaluate_and_rk4(name: str) -> None:
-    from sim_vehicle.dynamics import _rigid_body_jit as rbj
-    from sim_vehicle.dynamics.rigid_body import rk4_step
-
+def test_kernel_matches_reference_evaluate_and_rk4(name: str) -> None:
+    """_rigid_body_jit (evaluate, step) against the plain-float reference
+    (tests/reference/rigid_body.py): same equations, same operation order."""
+    rbj = load_kernels("sim_vehicle.dynamics._rigid_body_jit")
     af = load_airframe(name)
     body = RigidBody(af)
     prm = rbj.pack_params(body)
@@ -183,17 +181,21 @@ def test_compiled_kernel_matches_python_evaluate_and_rk4(name: str) -> None:
         x = _random_state(rng, af.default_tas_mps)
         inp0 = tuple(float(v) for v in rng.normal(0.0, [0.1, 0.1, 0.1, 0.3, 3, 3, 1]))
         inp1 = tuple(float(v) for v in rng.normal(0.0, [0.1, 0.1, 0.1, 0.3, 3, 3, 1]))
-        d_ref, out_ref = body.evaluate(x, *inp0)
+        d_ref, out_ref = ref.evaluate(body, x, *inp0)
         d, out = np.empty(14), np.empty(rbj.N_OUT)
         rbj.evaluate(np.array(x), np.array(inp0), prm, d, out)
         np.testing.assert_allclose(d, d_ref, rtol=1e-12, atol=1e-15)
         np.testing.assert_allclose(out, out_ref, rtol=1e-12, atol=1e-15)
-        # step = rk4_step (k1 given) then evaluate at the new state with the end inputs
-        x_ref = rk4_step(body, x, 0.01, inp0, inp1, list(d_ref))
-        d1_ref, out1_ref = body.evaluate(x_ref, *inp1)
+        # step = RK4 (k1 given) then evaluate at the new state with the end inputs
+        x_ref = ref.rk4_step(body, x, 0.01, inp0, inp1, list(d_ref))
+        d1_ref, out1_ref = ref.evaluate(body, x_ref, *inp1)
         xn, dn, on = np.empty(14), np.empty(14), np.empty(rbj.N_OUT)
         rbj.step(np.array(x), 0.01, np.array(inp0 + inp1), d, prm, xn, dn, on)
         np.testing.assert_allclose(xn, x_ref, rtol=1e-12, atol=1e-15)
         np.testing.assert_allclose(dn, d1_ref, rtol=1e-12, atol=1e-15)
         np.testing.assert_allclose(on, out1_ref, rtol=1e-12, atol=1e-15)
         assert math.isclose(float(np.linalg.norm(xn[6:10])), 1.0, rel_tol=1e-14)
+        # RigidBody.evaluate (the trim's) returns the kernel's numbers
+        d2, out2 = body.evaluate(x, *inp0)
+        np.testing.assert_array_equal(d2, d)
+        np.testing.assert_array_equal(out2, out)

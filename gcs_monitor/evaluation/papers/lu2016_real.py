@@ -1,4 +1,5 @@
-"""Open-loop IMU fault reconstruction on real flights (Lu2016 sec. 5), through the MAVLink path.
+"""Lu2016 on real data: open-loop IMU fault reconstruction on real flights (Lu2016 sec. 5),
+through the MAVLink path (experiment ``imu_real``).
 
 Each flight is converted to a contract .tlog by ``gcs_monitor.convert.writer.convert_file`` twice:
 with the Lu2016 Table 2 faults added to IMU 0 (``lu2016_table2_injector()``; the converter
@@ -34,12 +35,15 @@ checked with the Zipline thresholds and with the monitor defaults. "Re-anchor no
 the ESTIMATOR events (gcs_monitor/families/imu/gating.py: a velocity or attitude step the IMU
 cannot explain, or an input gap; states re-anchored, fault estimates kept, channels not judged
 while re-converging) -- what the operator sees instead of an IMU fault alarm.
+
+The data folder is :func:`gcs_monitor.evaluation.data.real_data_dir` (``--data-dir``,
+``GCS_DATA_DIR``); the replays run in the evaluation's process pool
+(:func:`~gcs_monitor.evaluation.runner.run_parallel`).
 """
 
 from __future__ import annotations
 
 import csv
-import dataclasses
 import math
 import tempfile
 from collections.abc import Callable
@@ -49,31 +53,28 @@ from typing import Any
 import numpy as np
 
 from gcs_monitor.config import MonitorConfig
-from gcs_monitor.config.loader import EstimatorsConfig, SetConfig
+from gcs_monitor.config.loader import FdiConfig, SetConfig
 from gcs_monitor.convert.writer import convert_file, lu2016_table2_injector
 from gcs_monitor.core.frames import dcm_ned_frd, euler_rates
 from gcs_monitor.core.units import RAD2DEG
-from gcs_monitor.estimators.base import Estimator
-from gcs_monitor.evaluation.imu import (
-    AXES,
-    REPORT_SCALE,
-    SCORE_DELAY_S,
-    md_table,
-    replay_packets,
-    write_csv,
+from gcs_monitor.estimators.imu_ts import FAULT_CHANNELS, Lu2016Table1
+from gcs_monitor.evaluation.configs import (
+    EstimatorFactory,
+    gs_atsekf_with,
+    imu_config,
+    set_thresholds,
 )
-from gcs_monitor.families.imu.imu_ts import (
-    FAULT_CHANNELS,
-    ImuTsConfig,
-    ImuTwoStageEstimator,
-    Lu2016Table1,
-)
+from gcs_monitor.evaluation.data import real_data_file
+from gcs_monitor.evaluation.records import AXES, REPORT_SCALE
+from gcs_monitor.evaluation.report import md_table, write_csv
+from gcs_monitor.evaluation.runner import run_parallel
+from gcs_monitor.evaluation.runs import replay_packets, tlog_chunks
+from gcs_monitor.evaluation.scoring import SCORE_DELAY_S
 from gcs_monitor.fdi.events import AlarmState
 from gcs_monitor.fdi.monitor import calibrate
 
-DATA_DIR = Path("/work/shared/data/real")
-ZIPLINE_DIR = DATA_DIR / "zipline_launch"
-ONSPEED_FILE = DATA_DIR / "onspeed_vac_decel_stall_50hz.csv"
+ZIPLINE_DIR = "zipline_launch"  # in the real-data folder
+ONSPEED_FILE = "onspeed_vac_decel_stall_50hz.csv"  # in the real-data folder
 ZIPLINE_T0_S = -5.0  # converter time 0 = first row; rows start 5 s before launch
 LAUNCH_SETTLE_S = 0.5
 STATIONARY_BEFORE_S = -1.2
@@ -132,7 +133,8 @@ def zipline_noise(paths: list[Path]) -> tuple[Lu2016Table1, dict[str, float]]:
     return Lu2016Table1(**st), st
 
 
-def onspeed_noise(path: Path = ONSPEED_FILE) -> tuple[Lu2016Table1, dict[str, float]]:
+def onspeed_noise(path: Path) -> tuple[Lu2016Table1, dict[str, float]]:
+    """Noise sigmas of the OnSpeed / VN-300 flight (module docstring); also the statistics."""
     with open(path, newline="") as fh:
         rows = list(csv.reader(fh))
     h = [x.strip() for x in rows[0]]
@@ -157,25 +159,22 @@ def onspeed_noise(path: Path = ONSPEED_FILE) -> tuple[Lu2016Table1, dict[str, fl
     return Lu2016Table1(**st), st
 
 
-def estimators_with(noise: Lu2016Table1) -> Callable[[], list[Estimator]]:
-    cfg = ImuTsConfig(model="gs", adaptive=True, noise=noise, imu_rate_hz=IMU_RATE_HZ)
-    return lambda: [ImuTwoStageEstimator(cfg)]
+def _estimators(noise: Lu2016Table1) -> EstimatorFactory:
+    return lambda: gs_atsekf_with(noise, IMU_RATE_HZ)
 
 
-def _tlog_chunks(path: Path) -> list[bytes]:
-    from gcs_monitor.link.transports import TlogSource
-
-    with TlogSource(path) as src:
-        return [chunk for chunk, _ in src]
+Replay = tuple[Path, Path, str, Lu2016Table1, bool, MonitorConfig | None]
 
 
-def replay_flight(path: Path, tmp: Path, noise: Lu2016Table1, *, inject: bool,
-                  cfg: MonitorConfig | None = None) -> dict[str, Any]:
-    """Convert (optionally with the Lu2016 Table 2 injection) and replay one flight."""
-    out = tmp / (path.stem + ("_inj" if inject else "_clean") + ".tlog")
+def replay_flight(job: Replay) -> dict[str, Any]:
+    """Convert (optionally with the Lu2016 Table 2 injection) and replay one flight; ``job`` is
+    (flight file, temporary folder, a tag that makes the tlog name unique, noise, inject,
+    monitor configuration or None for :func:`~gcs_monitor.evaluation.configs.imu_config`)."""
+    path, tmp, tag, noise, inject, cfg = job
+    out = tmp / f"{tag}_{path.stem}{'_inj' if inject else '_clean'}.tlog"
     res = convert_file(path, out, inject_imu=lu2016_table2_injector() if inject else None)
     notices: list[Any] = []
-    t_s, f_hat, events = replay_packets(_tlog_chunks(out), estimators_with(noise), cfg,
+    t_s, f_hat, events = replay_packets(tlog_chunks(out), _estimators(noise), cfg,
                                         notices=notices)
     f = f_hat.get("imu_ts", np.full((len(t_s), 6), math.nan))
     truth = np.zeros((len(t_s), 6))
@@ -233,7 +232,8 @@ def _channels_alarmed(r: dict[str, Any]) -> list[bool]:
 
 
 def _thresholds(runs: list[dict[str, Any]], zipline: bool) -> dict[str, SetConfig]:
-    base = MonitorConfig().fdi
+    """IMU channel J_th from fault-free replays (rule "max" over the scored samples)."""
+    base = FdiConfig()
     thr = np.zeros(6)
     for r in runs:
         _, ff = _masks(r, zipline)
@@ -241,40 +241,40 @@ def _thresholds(runs: list[dict[str, Any]], zipline: bool) -> dict[str, SetConfi
             n = (base.acc if i < 3 else base.gyro).n_eval
             if ff.sum() >= n:
                 thr[i] = max(thr[i], calibrate(r["f_hat"][ff, i], rms_window_n=n))
-    return {"acc": dataclasses.replace(base.acc, threshold=float(thr[:3].max())),
-            "gyro": dataclasses.replace(base.gyro, threshold=float(thr[3:].max()))}
+    return set_thresholds({"acc": float(thr[:3].max()), "gyro": float(thr[3:].max())}, base)
 
 
-def _cfg(sets: dict[str, SetConfig] | None) -> MonitorConfig:
-    base = MonitorConfig(estimators=EstimatorsConfig(airdata="none"))
-    return base if sets is None else dataclasses.replace(
-        base, fdi=dataclasses.replace(base.fdi, **sets))
 
 
-def imu_real(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
+def imu_real(out_dir: Path, jobs: int, quick: bool, data_dir: Path) -> str:
     """Open-loop validation on the Zipline flights and the OnSpeed flight (module docstring).
     ``quick``: the first 8 Zipline flights."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    zips = sorted(ZIPLINE_DIR.glob("flight_*.csv"))
+    zips = sorted(real_data_file(data_dir, ZIPLINE_DIR).glob("flight_*.csv"))
+    onspeed = real_data_file(data_dir, ONSPEED_FILE)
     if quick:
         zips = zips[:8]
     zn, zst = zipline_noise(zips)
-    on, ost = onspeed_noise()
+    on, ost = onspeed_noise(onspeed)
     lines = ["Noise from the data (SI): Zipline " + ", ".join(f"{k} {v:.3g}" for k, v in
                                                              zst.items()),
              "OnSpeed/VN-300 " + ", ".join(f"{k} {v:.3g}" for k, v in ost.items())]
     rows: list[list[Any]] = []
     with tempfile.TemporaryDirectory() as td:
         tmp = Path(td)
-        clean = [replay_flight(p, tmp, zn, inject=False) for p in zips]
+        clean = run_parallel(replay_flight, [(p, tmp, "a", zn, False, None) for p in zips],
+                             jobs, desc="imu_real calibrate")
         sets = _thresholds(clean[0::2], zipline=True)
-        cfg = _cfg(sets)
-        inj = [replay_flight(p, tmp, zn, inject=True, cfg=cfg) for p in zips]
-        eval_clean = [replay_flight(p, tmp, zn, inject=False, cfg=cfg) for p in zips[1::2]]
-        r_on_inj = replay_flight(ONSPEED_FILE, tmp, on, inject=True, cfg=cfg)
-        r_on_clean = replay_flight(ONSPEED_FILE, tmp, on, inject=False, cfg=cfg)
-        r_on_clean_def = replay_flight(ONSPEED_FILE, tmp, on, inject=False, cfg=_cfg(None))
+        cfg = imu_config(sets)
+        n, n_eval = len(zips), len(zips[1::2])
+        work: list[Replay] = [(p, tmp, "b", zn, True, cfg) for p in zips]
+        work += [(p, tmp, "c", zn, False, cfg) for p in zips[1::2]]
+        work += [(onspeed, tmp, "d", on, True, cfg), (onspeed, tmp, "e", on, False, cfg),
+                 (onspeed, tmp, "f", on, False, imu_config(None))]
+        res = run_parallel(replay_flight, work, jobs, desc="imu_real")
+        inj, eval_clean = res[:n], res[n:n + n_eval]
+        r_on_inj, r_on_clean, r_on_clean_def = res[n + n_eval:]
     lines.append(f"Zipline thresholds from the fault-free replays of flights {zips[0].stem}, "
                  f"every 2nd ({len(clean[0::2])}): acc {sets['acc'].threshold:.4g} m/s^2, gyro "
                  f"{sets['gyro'].threshold * RAD2DEG:.4g} deg/s")
@@ -316,5 +316,6 @@ def imu_real(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
             "\n\n" + md_table(ff_header, ff_rows) + "\n")
 
 
-def experiments() -> dict[str, Callable[[Path, int, bool], str]]:
+def real_data_experiments() -> dict[str, Callable[[Path, int, bool, Path], str]]:
+    """Named experiments on the real data (registry hook)."""
     return {"imu_real": imu_real}

@@ -1,0 +1,1 @@
+"""One module per paper's experiments; each defines ``experiments()`` for the registry."""
