@@ -243,11 +243,13 @@ def test_equal_pair_weights_reaches_the_fusion(tmp_path: Path) -> None:
 
 
 def test_threshold_grows_with_the_declared_turbulence(tmp_path: Path) -> None:
+    # the declared weather alone (no online estimate, as Wan2018)
     c = load_config(_write(tmp_path, "[airdata.fdi.aoa]\nthreshold_deg = 0.5\n"
                                      "threshold_slope_deg_per_mps = 0.2\n"
                                      "[airdata.fdi.cas]\nthreshold_kts = 1.5\n"
                                      "threshold_slope_kts_per_mps = 1.0\n"
-                                     "[airdata.weather]\nturbulence_sigma_kts = 4\n"))
+                                     "[airdata.weather]\nturbulence_sigma_kts = 4\n"
+                                     "[airdata.weather_estimate]\nenabled = false\n"))
     sigma = 4 * KT2MPS
     air = c.family("airdata")
     assert air.weather.turbulence_sigma_mps == pytest.approx(sigma)
@@ -256,6 +258,11 @@ def test_threshold_grows_with_the_declared_turbulence(tmp_path: Path) -> None:
     sets = _air_sets(c).sets
     assert sets["aoa"].p.threshold == pytest.approx((0.5 + 0.2 * sigma) * DEG2RAD)
     assert sets["cas"].p.threshold == pytest.approx((1.5 + 1.0 * sigma) * KT2MPS)
+    # with the online estimate, J_th follows the start prior until it has converged
+    e = load_config(_write(tmp_path, "[airdata.fdi.aoa]\nthreshold_deg = 0.5\n"
+                                     "threshold_slope_deg_per_mps = 0.2\n"))
+    start = e.family("airdata").weather_estimate.start_sigma_mps
+    assert _air_sets(e).sets["aoa"].p.threshold == pytest.approx((0.5 + 0.2 * start) * DEG2RAD)
     # no slope given: one fixed J_th (Wan2018), whatever the weather
     d = load_config(_write(tmp_path, "[airdata.weather]\nturbulence_sigma_kts = 4\n"))
     assert _air_sets(d).sets["aoa"].p.threshold == pytest.approx(

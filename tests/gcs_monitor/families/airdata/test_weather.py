@@ -7,9 +7,9 @@ import math
 
 import numpy as np
 import pytest
-from gcs_monitor.families.airdata.weather import WeatherConfig, WeatherEstimator, wind_ned
 
 from gcs_monitor.core.atmosphere import cas_from_tas
+from gcs_monitor.families.airdata.weather import WeatherConfig, WeatherEstimator, wind_ned
 from gcs_monitor.models.airdata import WindEnvelope
 
 DT_US = 50_000  # 20 Hz air data
