@@ -55,7 +55,14 @@ import numpy as np
 from gcs_monitor.link.mav import mavlink
 from gcs_monitor.link.stats import LinkStats
 from gcs_monitor.telemetry import contract as ct
-from gcs_monitor.telemetry.frame import Frame, ImuSample
+from gcs_monitor.telemetry.frame import (
+    AttitudeTarget,
+    Frame,
+    HudSample,
+    ImuSample,
+    NavOutput,
+    ServoOutputs,
+)
 from gcs_monitor.telemetry.period import SamplePeriod
 from gcs_monitor.telemetry.samples import GpsSample, gps_sample, interpolate_gps
 
@@ -144,6 +151,9 @@ class FrameAssembler:
             M.MAVLINK_MSG_ID_SCALED_PRESSURE: self._scaled_pressure,
             M.MAVLINK_MSG_ID_DEBUG_FLOAT_ARRAY: self._debug_array,
             M.MAVLINK_MSG_ID_HEARTBEAT: self._heartbeat,
+            M.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW: self._servo_output,
+            M.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT: self._nav_output,
+            M.MAVLINK_MSG_ID_ATTITUDE_TARGET: self._attitude_target,
         }
         self.seen: set[str] = set()  # contract messages accepted at least once (availability)
         self.ignored = 0
@@ -180,6 +190,7 @@ class FrameAssembler:
         self._last_frame_t = NEVER_US
         self._now_us = NEVER_US
         self._att: np.ndarray | None = None
+        self._att_rate: np.ndarray | None = None
         self._att_t = NEVER_US
         self._gps: collections.deque[GpsSample] = collections.deque(maxlen=GPS_RING)
         self._gps_fix = -1
@@ -200,6 +211,11 @@ class FrameAssembler:
         self._oat = math.nan
         self._surf: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self._surf_t = NEVER_US
+        # control telemetry (samples stamped with their vehicle time; see _control_fields)
+        self._servo: ServoOutputs | None = None
+        self._nav: NavOutput | None = None
+        self._att_target: AttitudeTarget | None = None
+        self._hud: HudSample | None = None
         self._pending: collections.deque[Frame] = collections.deque()
         self._next_reset_flag = False
 
@@ -393,6 +409,7 @@ class FrameAssembler:
             self.seen.add("ATTITUDE")
         self._att = e
         self._att_t = t_us
+        w = self._attitude_rates(m)
         if self._pending:
             for f in reversed(self._pending):
                 if f.t_us < t_us:
@@ -400,8 +417,22 @@ class FrameAssembler:
                 age = (f.t_us - t_us) * S_PER_US
                 if age < f.att_age_s:
                     f.euler_rad = e
+                    f.att_rate_frd_radps = w
                     f.att_age_s = age
         return []
+
+    def _attitude_rates(self, m: Any) -> np.ndarray | None:
+        """ATTITUDE rollspeed, pitchspeed, yawspeed (body FRD, rad/s), or None when implausible
+        (counted); stored with the attitude they came with."""
+        p, q, r = m.rollspeed, m.pitchspeed, m.yawspeed
+        W = ct.MAX_RATE_RADPS
+        if not (-W <= p <= W and -W <= q <= W and -W <= r <= W):
+            self._bad("ATTITUDE", ("rollspeed", "pitchspeed", "yawspeed"), (p, q, r),
+                      (-W,) * 3, (W,) * 3)
+            self._att_rate = None
+            return None
+        self._att_rate = np.array((p, q, r))
+        return self._att_rate
 
     def _gps_raw(self, m: Any) -> list[Frame]:
         self._gps_fix = int(m.fix_type)
@@ -532,6 +563,7 @@ class FrameAssembler:
         return []
 
     def _vfr_hud(self, m: Any) -> list[Frame]:
+        self._hud_fields(m)
         alt, climb = m.alt, m.climb
         V = ct.MAX_SPEED_MPS
         if not (ct.MIN_ALT_M <= alt <= ct.MAX_ALT_M and -V <= climb <= V):
@@ -585,6 +617,105 @@ class FrameAssembler:
         self._surf_t = int(m.time_usec)
         return []
 
+    # control telemetry: servo outputs, setpoints, throttle ------------------------------------
+    # Stamped with the vehicle time they arrive at (NAV_CONTROLLER_OUTPUT and VFR_HUD carry no
+    # time; SERVO_OUTPUT_RAW's 32-bit time_usec wraps after 71 min); ATTITUDE_TARGET with its
+    # time_boot_ms. Frames built from then on carry the latest sample and its age.
+    def _servo_output(self, m: Any) -> list[Frame]:
+        pwm: list[float] = []
+        for k in range(1, 17):
+            v = getattr(m, f"servo{k}_raw", 0)  # servo9..16: MAVLink 2 extensions
+            if v in ct.PWM_UNUSED:
+                pwm.append(math.nan)
+            elif 0 < v <= ct.MAX_PWM_US:
+                pwm.append(float(v))
+            else:
+                self.stats.bad_value(f"SERVO_OUTPUT_RAW.servo{k}_raw")
+                pwm.append(math.nan)
+        c, h = ct.PWM_CENTER_US, ct.PWM_HALF_RANGE_US
+        if self._servo is None:
+            self.seen.add("SERVO_OUTPUT_RAW")
+        self._servo = ServoOutputs(self._now_us, tuple(pwm), tuple((x - c) / h for x in pwm))
+        return []
+
+    def _nav_output(self, m: Any) -> list[Frame]:
+        k = ct.DEG_TO_RAD
+        ang = (m.nav_roll * k, m.nav_pitch * k)
+        E, V, A, X = ct.MAX_ANGLE_RAD, ct.MAX_SPEED_MPS, ct.MAX_ALT_M, ct.MAX_DIST_M
+        if not (-E <= ang[0] <= E and -E <= ang[1] <= E and -A <= m.alt_error <= A
+                and -V <= m.aspd_error <= V and -X <= m.xtrack_error <= X):
+            return self._bad("NAV_CONTROLLER_OUTPUT",
+                             ("nav_roll", "nav_pitch", "alt_error", "aspd_error", "xtrack_error"),
+                             (ang[0], ang[1], m.alt_error, m.aspd_error, m.xtrack_error),
+                             (-E, -E, -A, -V, -X), (E, E, A, V, X))
+        if self._nav is None:
+            self.seen.add("NAV_CONTROLLER_OUTPUT")
+        self._nav = NavOutput(self._now_us, ang[0], ang[1], m.nav_bearing * k,
+                              m.target_bearing * k, float(m.wp_dist), float(m.alt_error),
+                              float(m.aspd_error), float(m.xtrack_error))
+        return []
+
+    def _attitude_target(self, m: Any) -> list[Frame]:
+        mask = int(m.type_mask)
+        nan = math.nan
+        euler: tuple[float, float, float] | None = None
+        if not mask & 0x80:  # bit 7: attitude ignored
+            w, x, y, z = (float(v) for v in m.q)
+            n = math.sqrt(w * w + x * x + y * y + z * z)
+            if not 0.5 < n < 1.5:  # not a rotation (also False for NaN)
+                return self._bad("ATTITUDE_TARGET", ("q",), (n,), (0.5,), (1.5,))
+            w, x, y, z = w / n, x / n, y / n, z / n
+            euler = (math.atan2(2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)),
+                     -math.asin(max(-1.0, min(1.0, 2.0 * (x * z - w * y)))),
+                     math.atan2(2.0 * (x * y + w * z), 1.0 - 2.0 * (y * y + z * z)))
+        W = ct.MAX_RATE_RADPS
+        rates = []
+        for bit, v, name in ((1, m.body_roll_rate, "body_roll_rate"),
+                             (2, m.body_pitch_rate, "body_pitch_rate"),
+                             (4, m.body_yaw_rate, "body_yaw_rate")):
+            if mask & bit:
+                rates.append(nan)
+            elif -W <= v <= W:
+                rates.append(float(v))
+            else:
+                self.stats.bad_value(f"ATTITUDE_TARGET.{name}")
+                rates.append(nan)
+        thrust = nan if mask & 0x40 or not -1.0 <= m.thrust <= 1.0 else float(m.thrust)
+        if self._att_target is None:
+            self.seen.add("ATTITUDE_TARGET")
+        self._att_target = AttitudeTarget(m.time_boot_ms * ct.MS_TO_US, euler,
+                                          (rates[0], rates[1], rates[2]), thrust)
+        return []
+
+    def _hud_fields(self, m: Any) -> None:
+        """VFR_HUD airspeed, ground speed, heading and throttle (altitude and climb: _vfr_hud)."""
+        V = ct.MAX_SPEED_MPS
+        a, gs, thr = m.airspeed, m.groundspeed, m.throttle * ct.PCT_TO_FRAC
+        if not (0.0 <= a <= V and 0.0 <= gs <= V and 0.0 <= thr <= 1.0):
+            self._bad("VFR_HUD", ("airspeed", "groundspeed", "throttle"), (a, gs, thr),
+                      (0.0, 0.0, 0.0), (V, V, 1.0))
+            return
+        if self._hud is None:
+            self.seen.add("VFR_HUD.throttle")
+        self._hud = HudSample(self._now_us, float(a), float(gs), m.heading * ct.DEG_TO_RAD,
+                              thr)
+
+    def _control_fields(self, f: Frame, t_us: int) -> None:
+        """The latest control samples on a new frame, with their ages (None when stale)."""
+        stale = self.stale_s
+        if self._servo is not None:
+            f.servo_age_s = age = (t_us - self._servo.t_us) * S_PER_US
+            f.servo = self._servo if age <= stale else None
+        if self._nav is not None:
+            f.nav_age_s = age = (t_us - self._nav.t_us) * S_PER_US
+            f.nav = self._nav if age <= stale else None
+        if self._att_target is not None:
+            f.att_target_age_s = age = (t_us - self._att_target.t_us) * S_PER_US
+            f.att_target = self._att_target if age <= stale else None
+        if self._hud is not None:
+            f.hud_age_s = age = (t_us - self._hud.t_us) * S_PER_US
+            f.hud = self._hud if age <= stale else None
+
     # -- output ------------------------------------------------------------------------------
     def _new_frame(self, t_us: int) -> Frame:
         """Snapshot of the latest inputs at primary-IMU time ``t_us`` (GPS added in _finish).
@@ -619,7 +750,11 @@ class FrameAssembler:
             rod_pos_m=surf[2] if surf else None, surf_age_s=surf_age,
             reset=self._next_reset_flag, gps_fix=self._gps_fix,
             primary=self._primary if self._primary is not None else 0,
+            att_rate_frd_radps=self._att_rate if att_age <= stale else None,
         )
+        if self._servo is not None or self._nav is not None or self._hud is not None \
+                or self._att_target is not None:
+            self._control_fields(f, t_us)
         self._air_new = False
         self._next_reset_flag = False
         return f
@@ -658,6 +793,11 @@ class FrameAssembler:
             "ssa": "AOA_SSA" in s, "baro": "VFR_HUD" in s,
             "static_pressure": "SCALED_PRESSURE" in s,
             "surfaces": self._ever_surf,
+            "body_rates": self._att_rate is not None,
+            "servo_outputs": "SERVO_OUTPUT_RAW" in s,
+            "nav_setpoints": "NAV_CONTROLLER_OUTPUT" in s,
+            "attitude_target": "ATTITUDE_TARGET" in s,
+            "throttle": "VFR_HUD.throttle" in s,
             "frames": self.frames_out,
         }
 
@@ -668,7 +808,8 @@ def input_availability(source: FrameAssembler | Any) -> dict[str, Any]:
     ``source`` is a :class:`FrameAssembler` (what it has seen) or an iterable of Frames (what
     they carry valid at least once). Keys: ``imu_instances``/``aoa_instances``/``cas_instances``
     (counts), ``imu_ids``/``aoa_ids``/``cas_ids`` (instance lists), ``attitude``,
-    ``gps_velocity``, ``ssa``, ``baro``, ``static_pressure``, ``surfaces`` (bools), ``frames``.
+    ``gps_velocity``, ``ssa``, ``baro``, ``static_pressure``, ``surfaces``, ``body_rates``,
+    ``servo_outputs``, ``nav_setpoints``, ``attitude_target``, ``throttle`` (bools), ``frames``.
     """
     if isinstance(source, FrameAssembler):
         return source.availability()
@@ -676,6 +817,7 @@ def input_availability(source: FrameAssembler | Any) -> dict[str, Any]:
     aoa = np.zeros(N_AIR, dtype=bool)
     cas = np.zeros(N_AIR, dtype=bool)
     att = gps = ssa = baro = static = surf = False
+    rates = servo = nav = target = thr = False
     n = 0
     for f in source:
         n += 1
@@ -690,9 +832,16 @@ def input_availability(source: FrameAssembler | Any) -> dict[str, Any]:
         baro = baro or math.isfinite(f.baro_alt_m)
         static = static or math.isfinite(f.static_pressure_pa)
         surf = surf or f.surf_pos_rad is not None
+        rates = rates or f.att_rate_frd_radps is not None
+        servo = servo or f.servo is not None
+        nav = nav or f.nav is not None
+        target = target or f.att_target is not None
+        thr = thr or f.hud is not None
     aoa_ids = [int(i) for i in np.flatnonzero(aoa)]
     cas_ids = [int(i) for i in np.flatnonzero(cas)]
     return {"imu_instances": len(imu), "imu_ids": sorted(imu), "attitude": att,
             "gps_velocity": gps, "aoa_instances": len(aoa_ids), "aoa_ids": aoa_ids,
             "cas_instances": len(cas_ids), "cas_ids": cas_ids, "ssa": ssa, "baro": baro,
-            "static_pressure": static, "surfaces": surf, "frames": n}
+            "static_pressure": static, "surfaces": surf, "body_rates": rates,
+            "servo_outputs": servo, "nav_setpoints": nav, "attitude_target": target,
+            "throttle": thr, "frames": n}

@@ -30,6 +30,10 @@ CDEGC_TO_K = 0.01  # centi-degC -> K (scale), then + ZERO_C_K
 ZERO_C_K = 273.15
 MG_TO_MPS2 = GRAVITY_STD_MPS2 / 1000.0  # SCALED_IMU / ArduPilot RAW_IMU: milli-g
 MRAD_TO_RAD = 1.0e-3  # SCALED_IMU / ArduPilot RAW_IMU: milli-rad/s
+PCT_TO_FRAC = 0.01  # VFR_HUD throttle: percent -> 0..1
+PWM_CENTER_US = 1500.0  # SERVO_OUTPUT_RAW: normalised output = (pwm - centre) / half range
+PWM_HALF_RANGE_US = 500.0
+PWM_UNUSED = (0, 65535)  # an output channel the autopilot does not drive
 
 # --- plausibility limits: a value outside is counted as a bad value and dropped ------------------
 # These are link-integrity limits (physically impossible for any airframe we monitor), not fault
@@ -47,6 +51,8 @@ MIN_OAT_K = 150.0
 MAX_OAT_K = 350.0
 MAX_SURF_RAD = 1.6
 MAX_ROD_M = 1.0
+MAX_PWM_US = 3000.0  # any servo pulse (RC servos: 800-2200 µs)
+MAX_DIST_M = 1.0e6  # waypoint distance, cross-track error
 
 
 @dataclass(frozen=True, slots=True)
@@ -89,6 +95,8 @@ ROWS: tuple[Row, ...] = (
         MRAD_TO_RAD),
     Row("ATTITUDE", "time_boot_ms", "`att_t_us`", "ms → µs", "100 Hz", MS_TO_US),
     Row("", "roll, pitch, yaw", "`euler_rad` = [φ, θ, ψ]", "rad, ZYX Euler NED→FRD", "", 1.0),
+    Row("", "rollspeed, pitchspeed, yawspeed", "`att_rate_frd_radps` = [p, q, r]",
+        "rad/s, body FRD (the autopilot's estimate)", "", 1.0),
     Row(_GPI, "time_boot_ms", "`gps_t_us`", "ms → µs", "GPS rate (10 Hz; 1-10 Hz)", MS_TO_US),
     Row("", "lat, lon", "`lat_rad`, `lon_rad`", "degE7 → rad", "", DEGE7_TO_RAD),
     Row("", "alt", "`alt_msl_m`", "mm → m", "", MM_TO_M),
@@ -106,11 +114,30 @@ ROWS: tuple[Row, ...] = (
         "`aoa_rad[1]`, `aoa_rad[2]` (vanes 1, 2)", "deg → rad", "20 Hz", DEG_TO_RAD),
     Row("VFR_HUD", "alt", "`baro_alt_m`", "m, barometric (pressure) altitude", "20 Hz", 1.0),
     Row("", "climb", "`climb_mps`", "m/s, positive up (= −v_D)", "", 1.0),
-    Row("", "groundspeed, heading, throttle", "display only", ""),
+    Row("", "airspeed, groundspeed", "`hud.airspeed_mps`, `hud.groundspeed_mps`",
+        "m/s (airspeed as the autopilot shows it)", "", 1.0),
+    Row("", "heading", "`hud.heading_rad`", "deg → rad", "", DEG_TO_RAD),
+    Row("", "throttle", "`hud.throttle`", "% → 0..1", "", PCT_TO_FRAC),
     Row("SCALED_PRESSURE", "press_abs, temperature", "`static_pressure_pa`, `oat_k`",
         "hPa → Pa, cdegC → K", "10 Hz", HPA_TO_PA),
-    Row("SERVO_OUTPUT_RAW", "servo1..3_raw", "`servo_cmd_pwm_us` (display / standard tools)",
-        "PWM µs, 1500 ± 500 = ±max deflection", "10 Hz"),
+    Row("SERVO_OUTPUT_RAW", "servo1_raw .. servo16_raw", "`servo.pwm_us[k]` (k = channel − 1)",
+        "PWM µs; 0 and 65535 (unused) → NaN", "10 Hz", 1.0),
+    Row("", "servo1_raw .. servo16_raw", "`servo.norm[k]`",
+        "(PWM − 1500 µs) / 500 µs, dimensionless", ""),
+    Row("NAV_CONTROLLER_OUTPUT", "nav_roll, nav_pitch", "`nav.nav_roll_rad`, `nav.nav_pitch_rad`",
+        "deg → rad, commanded bank and pitch", "10 Hz", DEG_TO_RAD),
+    Row("", "nav_bearing, target_bearing", "`nav.nav_bearing_rad`, `nav.target_bearing_rad`",
+        "deg → rad", "", DEG_TO_RAD),
+    Row("", "wp_dist, alt_error, xtrack_error", "`nav.wp_dist_m`, `nav.alt_error_m`, "
+        "`nav.xtrack_error_m`", "m", "", 1.0),
+    Row("", "aspd_error", "`nav.aspd_error_mps`", "m/s (MAVLink; ArduPlane logs cm/s: the "
+        "log readers convert)", "", 1.0),
+    Row("ATTITUDE_TARGET", "time_boot_ms", "`att_target.t_us`", "ms → µs", "10 Hz", MS_TO_US),
+    Row("", "q (type_mask bit 7 clear)", "`att_target.euler_rad`",
+        "quaternion NED→FRD → ZYX Euler, rad", "", 1.0),
+    Row("", "body_roll_rate, body_pitch_rate, body_yaw_rate (bits 0-2 clear)",
+        "`att_target.rate_frd_radps`", "rad/s, body FRD", "", 1.0),
+    Row("", "thrust (bit 6 clear)", "`att_target.thrust`", "0..1", "", 1.0),
     Row(_SURF, "data[3k+0]", "`surf_cmd_rad[k]`", "rad, commanded surface deflection", "50 Hz",
         1.0),
     Row("", "data[3k+1]", "`surf_pos_rad[k]`", "rad, measured surface deflection", "", 1.0),

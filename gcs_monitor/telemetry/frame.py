@@ -24,6 +24,77 @@ class ImuSample:
     omega_frd_radps: Vec3  # (3,) body rates, FRD
 
 
+@dataclass(frozen=True, slots=True)
+class ServoOutputs:
+    """One SERVO_OUTPUT_RAW: the autopilot's output channels 1..16.
+
+    t_us : vehicle time the message arrived (its ``time_usec`` is 32 bits and wraps)
+    pwm_us : (16,) pulse width per output channel, µs; NaN where the channel is unused
+        (0 or 65535) or absent (servo9..16 are MAVLink 2 extensions)
+    norm : (16,) ``(pwm - 1500) / 500``: -1..1 around the standard centre (a surface's own
+        trim and throw, and the throttle's 1000-2000 µs range, are the families' business)
+    """
+
+    t_us: int
+    pwm_us: tuple[float, ...]
+    norm: tuple[float, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class NavOutput:
+    """One NAV_CONTROLLER_OUTPUT: the autopilot's attitude setpoints and tracking errors, SI.
+
+    t_us : vehicle time the message arrived (the message has no time stamp)
+    nav_roll_rad, nav_pitch_rad : commanded bank and pitch
+    nav_bearing_rad, target_bearing_rad : commanded heading, bearing to the target
+    wp_dist_m : distance to the active waypoint
+    alt_error_m, aspd_error_mps, xtrack_error_m : altitude, airspeed and cross-track errors
+        (MAVLink: commanded minus current for altitude and airspeed)
+    """
+
+    t_us: int
+    nav_roll_rad: float
+    nav_pitch_rad: float
+    nav_bearing_rad: float
+    target_bearing_rad: float
+    wp_dist_m: float
+    alt_error_m: float
+    aspd_error_mps: float
+    xtrack_error_m: float
+
+
+@dataclass(frozen=True, slots=True)
+class AttitudeTarget:
+    """One ATTITUDE_TARGET: the attitude controller's setpoint, SI; what its ``type_mask``
+    says to ignore is None / NaN.
+
+    euler_rad : (phi, theta, psi) of the target quaternion (ZYX, NED -> FRD), or None
+    rate_frd_radps : (p, q, r) body-rate setpoints, NaN where ignored
+    thrust : collective thrust setpoint 0..1 (NaN when ignored)
+    """
+
+    t_us: int
+    euler_rad: tuple[float, float, float] | None
+    rate_frd_radps: tuple[float, float, float]
+    thrust: float
+
+
+@dataclass(frozen=True, slots=True)
+class HudSample:
+    """The VFR_HUD fields besides altitude and climb (those are ``Frame.baro_alt_m`` /
+    ``climb_mps``): what the autopilot shows the pilot, SI.
+
+    airspeed_mps : the autopilot's airspeed (indicated; ground speed on a copter)
+    throttle : 0..1 (MAVLink: percent)
+    """
+
+    t_us: int
+    airspeed_mps: float
+    groundspeed_mps: float
+    heading_rad: float
+    throttle: float
+
+
 @dataclass(slots=True)
 class Frame:
     """Everything the estimators see at one IMU sample of the primary IMU.
@@ -41,6 +112,12 @@ class Frame:
     output_delay_us : with ``align_delay_us`` set, every input of this frame is that much older
         than the newest data received (everything consistently delayed); 0 otherwise
     reset : the assembler was reset (autopilot reboot) just before this frame
+    att_rate_frd_radps : (3,) body rates of the ATTITUDE message (the autopilot's estimate,
+        aligned with ``euler_rad``), or None
+    servo, nav, att_target, hud : the latest SERVO_OUTPUT_RAW, NAV_CONTROLLER_OUTPUT,
+        ATTITUDE_TARGET and VFR_HUD control fields (None when never received or older than
+        the stale limit); ``*_age_s`` their ages (inf when never received). A family sees a
+        new sample by its ``t_us``.
     """
 
     t_us: int
@@ -80,6 +157,16 @@ class Frame:
     reset: bool = False  # first frame after an assembler reset (autopilot reboot)
     # the IMU instance whose sample this frame is (it switches when the primary goes silent)
     primary: int = 0
+    # control telemetry (actuator family): body rates of ATTITUDE, servo outputs, setpoints
+    att_rate_frd_radps: Vec3 | None = None
+    servo: ServoOutputs | None = None
+    servo_age_s: float = float("inf")
+    nav: NavOutput | None = None
+    nav_age_s: float = float("inf")
+    att_target: AttitudeTarget | None = None
+    att_target_age_s: float = float("inf")
+    hud: HudSample | None = None
+    hud_age_s: float = float("inf")
 
     @property
     def primary_imu(self) -> ImuSample | None:

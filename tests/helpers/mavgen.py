@@ -7,7 +7,8 @@ A :class:`MavGen` produces the contract's message mix for one vehicle from smoot
 * GLOBAL_POSITION_INT + GPS_RAW_INT at ``gps_rate_hz`` (10 Hz); GPS velocity is LINEAR in time,
   so interpolation between two samples is exact up to the cm/s quantisation,
 * AIRSPEED x3 + AOA_SSA + NAMED_VALUE_FLOAT AOA1/AOA2 + VFR_HUD at ``air_rate_hz`` (20 Hz),
-* SCALED_PRESSURE and SERVO_OUTPUT_RAW at 10 Hz, DEBUG_FLOAT_ARRAY ``SURF`` at 50 Hz,
+* SCALED_PRESSURE, SERVO_OUTPUT_RAW, NAV_CONTROLLER_OUTPUT and ATTITUDE_TARGET at 10 Hz,
+  DEBUG_FLOAT_ARRAY ``SURF`` at 50 Hz,
   HEARTBEAT at 1 Hz.
 
 Corruption helpers (drop, duplicate, reorder, flip bits) and the tlog image are module
@@ -98,6 +99,33 @@ class MavGen:
         return (95_000.0 - 5.0 * t, 283.15)
 
     @staticmethod
+    def att_rates(t: float) -> tuple[float, float, float]:
+        return (0.03 * math.cos(0.3 * t), -0.01 * math.sin(0.3 * t), 0.02)
+
+    @staticmethod
+    def servo_pwm(t: float) -> list[int]:
+        """Channels 1-4 driven (aileron, elevator, rudder, throttle), the others unused (0)."""
+        return [int(round(1500 + 200 * math.sin(t + k))) for k in range(3)] + [
+            int(round(1600 + 100 * math.sin(0.5 * t)))] + [0] * 12
+
+    @staticmethod
+    def nav(t: float) -> tuple[float, ...]:
+        """nav_roll, nav_pitch (rad), nav_bearing, target_bearing (rad), wp_dist (m),
+        alt_error (m), aspd_error (m/s), xtrack_error (m)."""
+        return (0.2 * math.sin(0.3 * t), 0.05, math.radians(30.0), math.radians(-45.0), 120.0,
+                2.0 * math.sin(t), -0.5, 3.0)
+
+    @staticmethod
+    def target(t: float) -> tuple[tuple[float, float, float], tuple[float, float, float], float]:
+        """ATTITUDE_TARGET truth: euler (rad), body-rate setpoints (rad/s), thrust."""
+        return ((0.2 * math.sin(0.3 * t), 0.05, 1.0), (0.1, -0.05, 0.02), 0.6)
+
+    @staticmethod
+    def hud(t: float) -> tuple[float, float, float, float]:
+        """airspeed, groundspeed (m/s), heading (rad), throttle (0..1)."""
+        return (25.0, 20.0, math.radians(90.0), 0.5)
+
+    @staticmethod
     def surf(t: float) -> list[float]:
         out = []
         for k in range(3):
@@ -123,9 +151,10 @@ class MavGen:
             t_us, acc[0], acc[1], acc[2], gyro[0], gyro[1], gyro[2], 0.0, 0.0, 0.0, 0.0, 0.0,
             0.0, 20.0, 0x3F, inst))
 
-    def attitude(self, t_us: int, e: Sequence[float]) -> bytes:
+    def attitude(self, t_us: int, e: Sequence[float],
+                 rates: Sequence[float] = (0.0, 0.0, 0.0)) -> bytes:
         return self._pack(mavlink.MAVLink_attitude_message(t_us // 1000, e[0], e[1], e[2],
-                                                           0.0, 0.0, 0.0))
+                                                           rates[0], rates[1], rates[2]))
 
     def global_position(self, t_us: int, vel: Sequence[float],
                         lla: Sequence[float]) -> bytes:
@@ -153,13 +182,30 @@ class MavGen:
     def vfr_hud(self, alt_m: float, climb_mps: float) -> bytes:
         return self._pack(mavlink.MAVLink_vfr_hud_message(25.0, 20.0, 90, 50, alt_m, climb_mps))
 
+    def nav_controller(self, t: float) -> bytes:
+        r, p, nb, tb, wp, ae, se, xe = self.nav(t)
+        return self._pack(mavlink.MAVLink_nav_controller_output_message(
+            r * RAD2DEG, p * RAD2DEG, int(round(nb * RAD2DEG)), int(round(tb * RAD2DEG)),
+            int(wp), ae, se, xe))
+
+    def attitude_target(self, t_us: int, t: float) -> bytes:
+        (ph, th, ps), (p, q, r), thrust = self.target(t)
+        cr, sr = math.cos(ph / 2), math.sin(ph / 2)
+        cp, sp = math.cos(th / 2), math.sin(th / 2)
+        cy, sy = math.cos(ps / 2), math.sin(ps / 2)
+        quat = [cr * cp * cy + sr * sp * sy, sr * cp * cy - cr * sp * sy,
+                cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy]
+        return self._pack(mavlink.MAVLink_attitude_target_message(
+            t_us // 1000, 0, quat, p, q, r, thrust))
+
     def scaled_pressure(self, t_us: int, p_pa: float, oat_k: float) -> bytes:
         return self._pack(mavlink.MAVLink_scaled_pressure_message(
             t_us // 1000, p_pa / 100.0, 3.8, int(round((oat_k - 273.15) * 100)), 0))
 
     def servo_output(self, t_us: int) -> bytes:
+        pwm = self.servo_pwm(t_us * 1e-6)
         return self._pack(mavlink.MAVLink_servo_output_raw_message(
-            t_us & 0xFFFFFFFF, 0, 1500, 1500, 1500, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0))
+            t_us & 0xFFFFFFFF, 0, *pwm[:8], *pwm[8:]))
 
     def surf_array(self, t_us: int, data9: Sequence[float]) -> bytes:
         d = list(data9) + [0.0] * (58 - len(data9))
@@ -193,7 +239,7 @@ class MavGen:
             for i in range(self.n_imu):
                 out.append((t_us, self.highres_imu(t_us, i, self.acc_frd(t, i),
                                                    self.gyro_frd(t, i))))
-            out.append((t_us, self.attitude(t_us, self.euler(t))))
+            out.append((t_us, self.attitude(t_us, self.euler(t), self.att_rates(t))))
             if k % gps_every == 0:
                 out.append((t_us, self.global_position(t_us, self.gps_vel_ned(t),
                                                        self.lat_lon_alt(t))))
@@ -208,6 +254,8 @@ class MavGen:
             if k % ten_hz == 0:
                 out.append((t_us, self.scaled_pressure(t_us, *self.static(t))))
                 out.append((t_us, self.servo_output(t_us)))
+                out.append((t_us, self.nav_controller(t)))
+                out.append((t_us, self.attitude_target(t_us, t)))
             if k % fifty_hz == 0:
                 out.append((t_us, self.surf_array(t_us, self.surf(t))))
         return out

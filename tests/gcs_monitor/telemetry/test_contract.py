@@ -26,8 +26,7 @@ def test_only_flag_and_display_rows_have_no_scale():
     no_scale = {(r.message, r.fields) for r in ct.ROWS if r.scale is None}
     assert no_scale == {("HEARTBEAT", "type, autopilot, base_mode"),
                         ("GPS_RAW_INT", "fix_type, satellites_visible"),
-                        ("", "groundspeed, heading, throttle"),
-                        ("SERVO_OUTPUT_RAW", "servo1..3_raw")}
+                        ("", "servo1_raw .. servo16_raw")}
 
 
 def test_round_trip_of_every_contract_field():
@@ -70,3 +69,25 @@ def test_round_trip_of_every_contract_field():
     np.testing.assert_allclose(f.surf_pos_rad, surf[1::3], atol=1e-7)
     np.testing.assert_allclose(f.rod_pos_m, surf[2::3], atol=1e-9)
     assert f.gps_fix == 3
+    np.testing.assert_allclose(f.att_rate_frd_radps, g.att_rates(t), rtol=f32, atol=f32)
+    # 10 Hz control telemetry: the latest sample, stamped with its arrival time
+    assert f.servo is not None and 0.0 <= f.servo_age_s <= 0.1 + 1e-9
+    t_ctl = (f.t_us - int(round(f.servo_age_s * 1e6))) * 1e-6
+    pwm = g.servo_pwm(t_ctl)
+    assert f.servo.pwm_us[:4] == tuple(float(x) for x in pwm[:4])
+    assert all(math.isnan(x) for x in f.servo.pwm_us[4:])  # 0 = unused
+    assert math.isclose(f.servo.norm[0], (pwm[0] - 1500) / 500)
+    assert f.nav is not None and math.isclose(f.nav_age_s, f.servo_age_s)
+    for got, want in zip((f.nav.nav_roll_rad, f.nav.nav_pitch_rad, f.nav.nav_bearing_rad,
+                          f.nav.target_bearing_rad, f.nav.wp_dist_m, f.nav.alt_error_m,
+                          f.nav.aspd_error_mps, f.nav.xtrack_error_m), g.nav(t_ctl), strict=True):
+        assert math.isclose(got, want, rel_tol=1e-5, abs_tol=1e-6)
+    assert f.att_target is not None and f.att_target.euler_rad is not None
+    euler, rates, thrust = g.target(t_ctl)
+    np.testing.assert_allclose(f.att_target.euler_rad, euler, atol=1e-6)
+    np.testing.assert_allclose(f.att_target.rate_frd_radps, rates, atol=1e-7)
+    assert math.isclose(f.att_target.thrust, thrust, rel_tol=1e-6)
+    assert f.hud is not None
+    a, gs, hdg, thr = g.hud(t_air)
+    assert (f.hud.airspeed_mps, f.hud.groundspeed_mps, f.hud.throttle) == (a, gs, thr)
+    assert math.isclose(f.hud.heading_rad, hdg)
