@@ -8,7 +8,11 @@ evaluation harness (``gcs_monitor.evaluation.harness.run_campaign``):
   varied wind and manoeuvre (issue 3);
 * ``wan2018`` -- Wan2018 sec. VI-B / Table II parametric runs (:mod:`sim_vehicle.wan2018_gen`);
 * ``fault_free`` -- no fault, every manoeuvre in turbulence (threshold calibration and
-  false-alarm checks).
+  false-alarm checks);
+* ``actuators`` -- the small UAV in manoeuvring flight with turbulence: a surface stuck at
+  its position, stuck at zero or with lost effectiveness (aileron, elevator, rudder), the
+  engine out, plus fault-free runs (issue 17);
+* ``actuators_fault_free`` -- the same flights without faults (threshold calibration).
 
 Magnitudes of the ``triplex`` set are ours (Wan2018 Table II ranges start at sizes the
 monitor's thresholds see at once; these are chosen to sit between 1.5x and 6x the default
@@ -24,6 +28,7 @@ import numpy as np
 
 from gcs_monitor.core.atmosphere import tas_from_cas
 from gcs_monitor.core.units import DEG2RAD, KT2MPS
+from sim_vehicle.actuators.faults import ACTUATORS, ENGINE, ActuatorFault
 from sim_vehicle.faults.profiles import FaultSpec
 from sim_vehicle.scenario import (
     MANOEUVRE_KINDS,
@@ -201,11 +206,106 @@ def fault_free(n_runs: int, seed: int = 0, *,
     return out
 
 
+@dataclass(frozen=True, slots=True)
+class ActuatorRanges:
+    """Draw ranges of the ``actuators`` set (uniform)."""
+
+    duration_s: tuple[float, float] = (60.0, 80.0)
+    fault_start_s: tuple[float, float] = (25.0, 40.0)
+    fault_free_share: float = 0.3
+    loss_of_effectiveness: tuple[float, float] = (0.5, 0.9)  # share of the effect lost
+    turbulence_sigma_mps: tuple[float, float] = (0.5, 2.0)
+    mean_wind_mps: float = 6.0  # horizontal steady wind up to this, random direction
+    tas_mps: tuple[float, float] = (22.0, 28.0)
+    alt_m: tuple[float, float] = (300.0, 1500.0)
+
+
+# (actuator, kind) of the ``actuators`` set, cycled so every case is in a small campaign
+ACTUATOR_CASES: tuple[tuple[int, str], ...] = (
+    *((s, k) for s in range(3) for k in ("solid_jam", "stuck_at_zero", "loss_of_effectiveness")),
+    (ENGINE, "engine_out"),
+)
+# manoeuvring flight: every manoeuvre but level; doublets on each surface
+ACTUATOR_MANOEUVRES: tuple[tuple[str, str], ...] = (
+    ("s_turn", "elevator"), ("coordinated_turn", "elevator"), ("doublet_3211", "aileron"),
+    ("doublet_3211", "elevator"), ("doublet_3211", "rudder"), ("climb", "elevator"),
+    ("decel", "elevator"))
+
+
+def _uav(name: str, description: str, rng: np.random.Generator, i: int,
+         faults: tuple[ActuatorFault, ...], r: ActuatorRanges, source: str) -> Scenario:
+    man, surface = ACTUATOR_MANOEUVRES[i % len(ACTUATOR_MANOEUVRES)]
+    duration = float(round(_u(rng, r.duration_s), 1))
+    ang = rng.uniform(0.0, 2.0 * np.pi)
+    w = _u(rng, (0.0, r.mean_wind_mps))
+    wind = WindSpec(kind="turbulence",
+                    mean_ned_mps=(float(round(w * np.cos(ang), 2)),
+                                  float(round(w * np.sin(ang), 2)), 0.0),
+                    turbulence_sigma_mps=float(round(_u(rng, r.turbulence_sigma_mps), 2)))
+    return Scenario(
+        name=name, description=f"{description}; {man} ({surface}), sigma "
+        f"{wind.turbulence_sigma_mps:g} m/s", airframe="uav", duration_s=duration,
+        seed=int(rng.integers(2**31)), dt_s=0.01,
+        initial=InitialSpec(alt_m=float(round(_u(rng, r.alt_m), 0)),
+                            tas_mps=float(round(_u(rng, r.tas_mps), 2)),
+                            heading_deg=float(round(rng.uniform(0, 360), 1))),
+        wind=wind, manoeuvre=ManoeuvreSpec(kind=man, start_s=5.0, surface=surface, repeat=True),
+        sensors=SensorConfig(n_imu=1), output=OutputConfig(), actuator_faults=faults,
+        source=source)
+
+
+def actuators(n_runs: int, seed: int = 0, *,
+              ranges: ActuatorRanges = ActuatorRanges()) -> list[Scenario]:
+    """Actuator faults of the small UAV in manoeuvring flight with turbulence (issue 17).
+
+    Run ``i`` is fault-free when it falls on the fault-free share (evenly spread); a faulty run
+    has one fault, the cases of :data:`ACTUATOR_CASES` taken in turn (stuck at position =
+    Lu2017 solid jamming, stuck at zero, loss of effectiveness on each surface; the engine
+    out). Manoeuvres cycle through :data:`ACTUATOR_MANOEUVRES`.
+    """
+    r = ranges
+    rng = np.random.default_rng(np.random.SeedSequence([seed, 17]))
+    out: list[Scenario] = []
+    n_faulty = 0
+    for i in range(n_runs):
+        fault_free = int((i + 1) * r.fault_free_share) > int(i * r.fault_free_share)
+        faults: tuple[ActuatorFault, ...] = ()
+        t0 = float(round(_u(rng, r.fault_start_s), 2))
+        if not fault_free:
+            act, kind = ACTUATOR_CASES[n_faulty % len(ACTUATOR_CASES)]
+            n_faulty += 1
+            amp = (float(round(_u(rng, r.loss_of_effectiveness), 2))
+                   if kind == "loss_of_effectiveness" else 0.0)
+            faults = (ActuatorFault(act, kind, t0, None, amp),)
+        desc = ("fault-free" if not faults else ", ".join(
+            f"{ACTUATORS[f.surface]} {f.kind}" + (f" {f.amplitude:g}" if f.amplitude else "")
+            + f" at {f.t_start_s:g} s" for f in faults))
+        out.append(_uav(f"actuators_s{seed}_r{i:04d}", f"actuator run {i} (seed {seed}): {desc}",
+                        rng, i, faults, r, "campaigns.actuators"))
+    return out
+
+
+def actuators_fault_free(n_runs: int, seed: int = 0, *,
+                         ranges: ActuatorRanges = ActuatorRanges()) -> list[Scenario]:
+    """The ``actuators`` flights without faults (threshold calibration, false alarms)."""
+    rng = np.random.default_rng(np.random.SeedSequence([seed, 18]))
+    out = []
+    for i in range(n_runs):
+        _u(rng, ranges.fault_start_s)  # same draw sequence as ``actuators``
+        out.append(_uav(f"actuators_ff_s{seed}_r{i:04d}",
+                        f"fault-free actuator-family run {i} (seed {seed})", rng, i, (),
+                        ranges, "campaigns.actuators_fault_free"))
+    return out
+
+
 PRESET_SETS: dict[str, tuple[Generator, str]] = {
     "triplex": (triplex, "single/double triplex AoA and CAS faults (6 kinds) + fault-free runs, "
                          "transport, 60-120 s"),
     "wan2018": (wan2018, "Wan2018 sec. VI-B / Table II parametric runs, 60-700 s"),
     "fault_free": (fault_free, "no fault, every manoeuvre, turbulence (threshold calibration)"),
+    "actuators": (actuators, "small UAV, manoeuvring in turbulence: each surface stuck, stuck at "
+                             "zero or lost effectiveness, engine out, + fault-free runs"),
+    "actuators_fault_free": (actuators_fault_free, "the actuators set's flights without faults"),
 }
 
 

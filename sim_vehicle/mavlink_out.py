@@ -15,8 +15,12 @@ Contract (docs/telemetry.md), sensor group -> messages:
   NAMED_VALUE_FLOAT ``AOA1``/``AOA2`` (deg)
 * ``baro`` -> VFR_HUD (alt = pressure altitude, climb positive up)
 * ``static`` -> SCALED_PRESSURE (press_abs hPa, temperature cdegC)
-* clocked: HEARTBEAT, SERVO_OUTPUT_RAW (PWM 1500 +- 500 = +- max deflection of commanded
-  surface), DEBUG_FLOAT_ARRAY ``SURF`` array 0 (cmd, pos, rod per surface)
+* clocked: HEARTBEAT, SERVO_OUTPUT_RAW (outputs 1-3: PWM 1500 +- 500 = +- max deflection of
+  the commanded aileron, elevator, rudder; output 4: throttle command, 1000-2000 µs),
+  DEBUG_FLOAT_ARRAY ``SURF`` array 0 (cmd, pos, rod per surface), and the autopilot's
+  setpoints: NAV_CONTROLLER_OUTPUT (commanded bank, pitch, heading; altitude and airspeed
+  errors, commanded minus current) and ATTITUDE_TARGET (commanded attitude quaternion, body
+  rates, throttle as thrust); VFR_HUD's throttle is the throttle command
 """
 
 from __future__ import annotations
@@ -50,6 +54,7 @@ TLOG_EPOCH_US = 1_700_000_000_000_000  # fixed wall epoch: tlog timestamps = epo
 KELVIN_0C = 273.15
 PWM_CENTER_US = 1500
 PWM_HALF_RANGE_US = 500
+PWM_THROTTLE_MIN_US = 1000  # throttle output: 1000 µs idle .. 2000 µs full
 DEBUG_ARRAY_LEN = 58  # DEBUG_FLOAT_ARRAY.data length
 GPS_FIX_3D = 3
 GPS_SATELLITES = 12
@@ -263,10 +268,31 @@ class MavlinkEncoder:
         for k in range(3):
             frac = max(-1.0, min(1.0, float(cmd[k]) / self.servo_max[k]))
             pwm.append(int(round(PWM_CENTER_US + PWM_HALF_RANGE_US * frac)))
-        self._throttle = int(round(100.0 * st.throttle))
+        thr = max(0.0, min(1.0, st.throttle_cmd))
+        self._throttle = int(round(100.0 * thr))
+        pwm.append(int(round(PWM_THROTTLE_MIN_US + 2 * PWM_HALF_RANGE_US * thr)))
         return ("SERVO_OUTPUT_RAW", self._pack(mavlink.MAVLink_servo_output_raw_message,
-            t_us & 0xFFFFFFFF, 0, pwm[0], pwm[1], pwm[2], 0, 0, 0, 0, 0,
+            t_us & 0xFFFFFFFF, 0, pwm[0], pwm[1], pwm[2], pwm[3], 0, 0, 0, 0,
             0, 0, 0, 0, 0, 0, 0, 0))
+
+    def setpoints(self, t_us: int, st: TrueState) -> list[tuple[str, bytes]]:
+        """The autopilot's setpoints: NAV_CONTROLLER_OUTPUT and ATTITUDE_TARGET."""
+        att = st.att_cmd_rad if st.att_cmd_rad is not None else st.euler_rad
+        rates = st.rate_cmd_radps if st.rate_cmd_radps is not None else st.omega_frd_radps
+        phi, theta, psi = float(att[0]), float(att[1]), float(att[2])
+        hdg = int(round(math.degrees(psi))) % 360
+        nav = self._pack(mavlink.MAVLink_nav_controller_output_message,
+            phi * RAD2DEG, theta * RAD2DEG, hdg, hdg, 0, st.alt_cmd_m - st.alt_m,
+            st.tas_cmd_mps - st.tas_mps, 0.0)
+        cr, sr = math.cos(0.5 * phi), math.sin(0.5 * phi)
+        cp, sp = math.cos(0.5 * theta), math.sin(0.5 * theta)
+        cy, sy = math.cos(0.5 * psi), math.sin(0.5 * psi)
+        q = [cr * cp * cy + sr * sp * sy, sr * cp * cy - cr * sp * sy,
+             cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy]
+        target = self._pack(mavlink.MAVLink_attitude_target_message,
+            t_us // 1000, 0, q, float(rates[0]), float(rates[1]), float(rates[2]),
+            max(0.0, min(1.0, st.throttle_cmd)))
+        return [("NAV_CONTROLLER_OUTPUT", nav), ("ATTITUDE_TARGET", target)]
 
     def surf(self, t_us: int, st: TrueState) -> tuple[str, bytes]:
         d = self._surf

@@ -26,7 +26,7 @@ from gcs_monitor.core import atmosphere as atm
 from gcs_monitor.core import constants as c
 from gcs_monitor.core.kernels import load_kernels
 from gcs_monitor.core.units import DEG2RAD
-from sim_vehicle.actuators.faults import ActuatorFault
+from sim_vehicle.actuators.faults import ActuatorFault, effectiveness
 from sim_vehicle.actuators.servo_bank import ActuatorGeometry, ServoBank
 from sim_vehicle.autopilot.loops import Autopilot, Feedback
 from sim_vehicle.autopilot.manoeuvres import ManoeuvreScript, ManoeuvreSpec
@@ -133,6 +133,12 @@ class Simulation:
         self._rbj = rbj = load_kernels("sim_vehicle.dynamics._rigid_body_jit")
         self._prm = rbj.pack_params(self.body)
         act = self.airframe.actuators
+        # aerodynamic / thrust effectiveness of the aileron, elevator, rudder, engine (faults)
+        self._act_faults = tuple(actuator_faults)
+        self._eff_faulted = tuple(
+            any(f.surface == i and f.kind in ("loss_of_effectiveness", "engine_out")
+                for f in self._act_faults) for i in range(4))
+        self._eff = [1.0, 1.0, 1.0, 1.0]
         self.servos = ServoBank(
             ActuatorGeometry(act.rod_gain_radpm, act.rod_stroke_m),
             (0.0, self.trim.elevator_rad, 0.0),
@@ -166,8 +172,17 @@ class Simulation:
 
     # ------------------------------------------------------------------ helpers
     def _surf(self) -> tuple[float, float, float]:
+        """The deflections the aerodynamics sees: the surfaces' positions times their
+        effectiveness (a surface that lost part of its effect still moves as commanded)."""
         s = self.servos
-        return s.deflection_rad(0), s.deflection_rad(1), s.deflection_rad(2)
+        e = self._eff
+        return (e[0] * s.deflection_rad(0), e[1] * s.deflection_rad(1),
+                e[2] * s.deflection_rad(2))
+
+    def _update_effectiveness(self, t_s: float) -> None:
+        for i, faulted in enumerate(self._eff_faulted):
+            if faulted:
+                self._eff[i] = effectiveness(self._act_faults, i, t_s)
 
     def _make_state(self, out: list[float]) -> TrueState:
         """The published state from ``self.x`` and the outputs of ``RigidBody.evaluate``.
@@ -175,12 +190,13 @@ class Simulation:
         Also caches the autopilot's :class:`Feedback` of that state (``self._fb``), built from
         the same floats as :meth:`_feedback_of` would take from it.
         """
+        sp = self.autopilot.setpoints
         x = self.x
-        da, de, dr = self._surf()
+        s = self.servos
+        da, de, dr = s.deflection_rad(0), s.deflection_rad(1), s.deflection_rad(2)
         ax, ay, az, tas, alpha, beta, _rho, _thrust = out
         h = x[2]
         phi, theta, psi = euler_from_quat(x[6], x[7], x[8], x[9])
-        s = self.servos
         p_static = atm.isa_pressure_pa(h)
         oat = atm.isa_temperature_k(h)
         self._fb = _feedback(
@@ -208,6 +224,12 @@ class Simulation:
             surf_pos_rad=np.array((da, de, dr)),
             rod_pos_m=np.array((s.rod_sensor_m(0), s.rod_sensor_m(1), s.rod_sensor_m(2))),
             throttle=x[13],
+            throttle_cmd=self._thr_cmd,
+            att_cmd_rad=np.array((sp.phi_rad, sp.theta_rad, sp.psi_rad)),
+            rate_cmd_radps=np.array((sp.p_radps, sp.q_radps, sp.r_radps)),
+            alt_cmd_m=sp.alt_m,
+            tas_cmd_mps=sp.tas_mps,
+            effectiveness=np.array(self._eff),
         )
 
     @staticmethod
@@ -235,6 +257,7 @@ class Simulation:
         da, de, dr, thr = self.autopilot.update(fb, tg, dt)
         self._thr_cmd = thr
         s0 = self._surf()
+        self._update_effectiveness(self.t_s)
         self.servos.step(self.t_s, dt, (da, de, dr))
         s1 = self._surf()
         w0 = self._wind_now
@@ -244,12 +267,13 @@ class Simulation:
         # and wind); only the engine-lag term depends on the new throttle command. The kernel
         # is the RK4 step followed by ``evaluate`` at the new state.
         k1 = self._deriv
-        k1[13] = (thr - self.x[13]) / self.body.tau_engine_s
         rbj = self._rbj
         xa = np.empty(rbj.N_STATE)
         deriv = np.empty(rbj.N_STATE)
         out = np.empty(rbj.N_OUT)
-        rbj.step(self._xa, dt, np.array((*s0, thr, *w0, *s1, thr, *w1)), k1, self._prm,
+        thr_eff = self._eff[3] * thr  # engine faults: the thrust the throttle still gets
+        k1[13] = (thr_eff - self.x[13]) / self.body.tau_engine_s
+        rbj.step(self._xa, dt, np.array((*s0, thr_eff, *w0, *s1, thr_eff, *w1)), k1, self._prm,
                  xa, deriv, out)
         self._xa = xa
         self._deriv = deriv

@@ -153,6 +153,7 @@ def iter_run(
     hb = _Clock(round(1e6 / o.heartbeat_hz))
     servo = _Clock(round(1e6 / o.servo_output_raw_hz))
     surf = _Clock(round(1e6 / o.surf_hz))
+    nav = _Clock(round(1e6 / o.nav_hz))
     truth_clock = _Clock(round(1e6 / o.truth_hz))
     counts = rs.counts
     st = sim.state()
@@ -171,6 +172,8 @@ def iter_run(
             out.append(enc.servo_output_raw(t_us, st))
         if surf.due(t_us):
             out.append(enc.surf(t_us, st))
+        if nav.due(t_us):
+            out += enc.setpoints(t_us, st)
         if rs.truth is not None and truth_clock.due(t_us):
             rs.truth.record(st)
         rs.steps = k + 1

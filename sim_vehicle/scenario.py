@@ -9,7 +9,7 @@ Layout (every key carries its unit; deg, kts and ft are accepted and converted t
     [manoeuvre]  kind, start_s, amplitude_deg|amplitude_rad, surface, period_s, repeat
     [sensors]    set ("lu2016"|"atmaca2025"), n_imu, imu_hz, attitude_hz, gps_hz, airdata_hz,
                  baro_hz, static_hz, gps_latency_s
-    [output]     sysid, heartbeat_hz, servo_output_raw_hz, surf_hz, truth_hz,
+    [output]     sysid, heartbeat_hz, servo_output_raw_hz, surf_hz, nav_hz, truth_hz,
                  servo_max_deflection_deg
     [[faults]]           channel, kind, t_start_s, [t_end_s], parameters (profiles.py)
     [[actuator_faults]]  surface, kind, t_start_s, [t_end_s], amplitude|amplitude_m,
@@ -28,8 +28,14 @@ from pathlib import Path
 from typing import Any
 
 from gcs_monitor.core.units import DEG2RAD
-from sim_vehicle.actuators.faults import FAULT_KINDS as ACTUATOR_FAULT_KINDS
-from sim_vehicle.actuators.faults import SURFACES, ActuatorFault
+from sim_vehicle.actuators.faults import (
+    ACTUATORS,
+    ENGINE,
+    ENGINE_FAULT_KINDS,
+    SURFACE_FAULT_KINDS,
+    SURFACES,
+    ActuatorFault,
+)
 from sim_vehicle.faults.profiles import (
     FAULT_KINDS,
     KIND_PARAMS,
@@ -111,6 +117,7 @@ class OutputConfig:
     heartbeat_hz: float = 1.0  # docs/telemetry.md
     servo_output_raw_hz: float = 10.0  # docs/telemetry.md
     surf_hz: float = 50.0  # DEBUG_FLOAT_ARRAY SURF, docs/telemetry.md
+    nav_hz: float = 10.0  # NAV_CONTROLLER_OUTPUT + ATTITUDE_TARGET, docs/telemetry.md
     truth_hz: float = 100.0
     servo_max_deflection_rad: float = 25.0 * DEG2RAD  # PWM 1500 +- 500 spans +-this
 
@@ -314,6 +321,7 @@ def _read_output(t: _Table) -> OutputConfig:
         servo_output_raw_hz=_positive(
             t, "servo_output_raw_hz", t.take("servo_output_raw_hz", float, d.servo_output_raw_hz)),
         surf_hz=_positive(t, "surf_hz", t.take("surf_hz", float, d.surf_hz)),
+        nav_hz=_positive(t, "nav_hz", t.take("nav_hz", float, d.nav_hz)),
         truth_hz=_positive(t, "truth_hz", t.take("truth_hz", float, d.truth_hz)),
         servo_max_deflection_rad=t.take_unit(
             "servo_max_deflection", "angle", d.servo_max_deflection_rad),
@@ -379,11 +387,12 @@ def _read_fault(t: _Table, catalogue: dict[str, Any]) -> FaultSpec:
 
 def _read_actuator_fault(t: _Table) -> ActuatorFault:
     surface = t.take("surface", str)
-    if surface not in SURFACES:
-        raise t.err("surface", f"expected one of {SURFACES}, got {surface!r}")
+    if surface not in ACTUATORS:
+        raise t.err("surface", f"expected one of {ACTUATORS}, got {surface!r}")
     kind = t.take("kind", str)
-    if kind not in ACTUATOR_FAULT_KINDS:
-        raise t.err("kind", f"expected one of {ACTUATOR_FAULT_KINDS}, got {kind!r}")
+    kinds = ENGINE_FAULT_KINDS if ACTUATORS.index(surface) == ENGINE else SURFACE_FAULT_KINDS
+    if kind not in kinds:
+        raise t.err("kind", f"expected one of {kinds} on the {surface}, got {kind!r}")
     t0 = t.take("t_start_s", float, 12.0)
     t1 = t.take("t_end_s", float, None)
     if t1 is not None and t1 <= t0:
@@ -392,6 +401,10 @@ def _read_actuator_fault(t: _Table) -> ActuatorFault:
         amp = t.take_unit("amplitude", "length")  # rod-sensor bias, m
     elif kind in ("liquid_ofc", "solid_ofc"):
         amp = t.take("amplitude", float)  # valve-command units (-)
+    elif kind == "loss_of_effectiveness":
+        amp = t.take("amplitude", float)  # share of the effect lost
+        if not 0.0 < amp <= 1.0:
+            raise t.err("amplitude", f"the share of the effect lost: 0 < amplitude <= 1, got {amp}")
     else:
         amp = t.take("amplitude", float, 1.0 if kind == "runaway" else 0.0)
     freq = t.take("frequency_hz", float, 0.0)
@@ -399,7 +412,7 @@ def _read_actuator_fault(t: _Table) -> ActuatorFault:
         raise t.err("frequency_hz", "an OFC needs frequency_hz > 0")
     phase = t.take_unit("phase", "angle", 0.0)
     t.finish()
-    return ActuatorFault(SURFACES.index(surface), kind, t0, t1, amp, freq, phase)
+    return ActuatorFault(ACTUATORS.index(surface), kind, t0, t1, amp, freq, phase)
 
 
 def _check_overlaps(faults: tuple[FaultSpec, ...], src: str) -> None:
@@ -558,7 +571,8 @@ def to_toml(sc: Scenario) -> str:
     o = sc.output
     lines += ["", "[output]", f"sysid = {o.sysid}", f"heartbeat_hz = {_fmt(o.heartbeat_hz)}",
               f"servo_output_raw_hz = {_fmt(o.servo_output_raw_hz)}",
-              f"surf_hz = {_fmt(o.surf_hz)}", f"truth_hz = {_fmt(o.truth_hz)}",
+              f"surf_hz = {_fmt(o.surf_hz)}", f"nav_hz = {_fmt(o.nav_hz)}",
+              f"truth_hz = {_fmt(o.truth_hz)}",
               f"servo_max_deflection_rad = {_fmt(o.servo_max_deflection_rad)}"]
     for f in sc.faults:
         lines += ["", "[[faults]]", f"channel = {_fmt(f.channel)}", f"kind = {_fmt(f.kind)}",
@@ -572,7 +586,7 @@ def to_toml(sc: Scenario) -> str:
                 k = "expr_" + _unit_with_factor(k[len("expr_"):], factor)
             lines.append(f"{k} = {_fmt(value)}")
     for a in sc.actuator_faults:
-        lines += ["", "[[actuator_faults]]", f"surface = {_fmt(SURFACES[a.surface])}",
+        lines += ["", "[[actuator_faults]]", f"surface = {_fmt(ACTUATORS[a.surface])}",
                   f"kind = {_fmt(a.kind)}", f"t_start_s = {_fmt(a.t_start_s)}"]
         if a.t_end_s is not None:
             lines.append(f"t_end_s = {_fmt(a.t_end_s)}")

@@ -33,4 +33,13 @@ class TrueState:
     surf_cmd_rad: Vec  # (3,) commanded aileron, elevator, rudder deflection
     surf_pos_rad: Vec  # (3,) actual deflection (after the Lu2017 servo, incl. actuator faults)
     rod_pos_m: Vec  # (3,) servo rod position (Lu2017)
-    throttle: float  # 0..1
+    throttle: float  # 0..1, the engine's state (lags the command)
+    # the autopilot's commands (published as NAV_CONTROLLER_OUTPUT / ATTITUDE_TARGET / VFR_HUD)
+    throttle_cmd: float = 0.0  # 0..1
+    att_cmd_rad: Vec3 | None = None  # (3,) commanded [phi, theta, psi]
+    rate_cmd_radps: Vec3 | None = None  # (3,) commanded body rates [p, q, r]
+    alt_cmd_m: float = 0.0
+    tas_cmd_mps: float = 0.0
+    # actuator health (truth): share of the nominal effect of the aileron, elevator, rudder
+    # and engine (1 healthy, 0 none; a stuck surface is in surf_pos_rad, not here)
+    effectiveness: Vec | None = None  # (4,)

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sim_vehicle.actuators.faults import SURFACES
+from sim_vehicle.actuators.faults import ACTUATORS
 from sim_vehicle.scenario import Scenario, to_toml
 from sim_vehicle.state import TrueState
 
@@ -36,7 +36,7 @@ def fault_events(sc: Scenario) -> list[dict[str, object]]:
         ev.append({"type": "sensor", "channel": f.channel, "kind": f.kind,
                    "t_start_s": f.t_start_s, "t_end_s": f.t_end_s, "params": dict(f.params)})
     for a in sc.actuator_faults:
-        ev.append({"type": "actuator", "channel": f"actuator.{SURFACES[a.surface]}",
+        ev.append({"type": "actuator", "channel": f"actuator.{ACTUATORS[a.surface]}",
                    "kind": a.kind, "t_start_s": a.t_start_s, "t_end_s": a.t_end_s,
                    "params": {"amplitude": a.amplitude, "frequency_hz": a.frequency_hz,
                               "phase_rad": a.phase_rad}})

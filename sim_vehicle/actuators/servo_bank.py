@@ -79,6 +79,8 @@ class ServoBank:
             self.cmd_rad[i] = c
             q_com = max(-stroke, min(stroke, c / gain))
             eff = fault_effect(self.faults, i, t_s) if self._faulted[i] else None
+            if eff is not None and eff.to_zero:
+                q_com = 0.0  # stuck at zero: the servo holds neutral whatever is commanded
             self.sensor_bias_m[i] = eff.sensor_bias_m if eff is not None else 0.0
             row = inp[i]
             if eff is not None and eff.jammed:

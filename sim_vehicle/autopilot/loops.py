@@ -74,6 +74,22 @@ class Feedback:
     gamma_rad: float
 
 
+@dataclass(frozen=True, slots=True)
+class Setpoints:
+    """What the loops commanded on their last step (SI; published as NAV_CONTROLLER_OUTPUT and
+    ATTITUDE_TARGET): attitude, body rates, heading, and the altitude and airspeed targets."""
+
+    phi_rad: float = 0.0
+    theta_rad: float = 0.0
+    psi_rad: float = 0.0
+    p_radps: float = 0.0
+    q_radps: float = 0.0
+    r_radps: float = 0.0
+    alt_m: float = 0.0
+    tas_mps: float = 0.0
+    throttle: float = 0.0
+
+
 def _wrap(a: float) -> float:
     return (a + math.pi) % (2.0 * math.pi) - math.pi
 
@@ -95,6 +111,7 @@ class Autopilot:
         self.int_v = 0.0
         self.de_trim = trim.elevator_rad
         self.thr_trim = trim.throttle
+        self.setpoints = Setpoints(theta_rad=trim.alpha_rad, throttle=trim.throttle)
 
     def update(self, fb: Feedback, tg: Targets, dt_s: float) -> tuple[float, float, float, float]:
         """One autopilot step: returns (aileron, elevator, rudder) rad and throttle (0..1)."""
@@ -124,6 +141,7 @@ class Autopilot:
                 + turn_q
             )
         else:
+            theta_c = fb.theta  # load-factor tracking: no pitch-attitude setpoint
             n = -fb.acc_z_mps2 / g
             q_c = (g / v) * (
                 (tg.load_factor - math.cos(fb.gamma_rad)) + LOAD_FACTOR_GAIN * (tg.load_factor - n)
@@ -145,8 +163,10 @@ class Autopilot:
         if tg.bank_rad is None:
             psidot_c = gn.heading_bw_radps * _wrap(tg.heading_rad - fb.psi)
             phi_c = math.atan(psidot_c * v / g)
+            psi_c = tg.heading_rad
         else:
             phi_c = tg.bank_rad
+            psi_c = fb.psi
         phi_c = _sat(phi_c, gn.max_bank_rad)
         wp = gn.rate_bw_radps
         eph = phi_c - fb.phi
@@ -172,4 +192,7 @@ class Autopilot:
         if abs(dr) < lim_r:
             self.int_r += dt_s * er
         dr = _sat(dr + tg.surface_offset_rad[2], lim_r)
+        self.setpoints = Setpoints(phi_c, theta_c, psi_c, p_c, q_c, r_c,
+                                   tg.alt_m if tg.load_factor is None else fb.alt_m,
+                                   tg.tas_mps, thr)
         return da, de, dr, thr

@@ -94,6 +94,7 @@ def test_tlog_rates_with_stock_mavutil(tmp_path: Path) -> None:
                 "NAMED_VALUE_FLOAT" + "AOA1": r.airdata_hz, "NAMED_VALUE_FLOATAOA2": r.airdata_hz,
                 "VFR_HUD": r.baro_hz, "SCALED_PRESSURE": r.static_hz,
                 "SERVO_OUTPUT_RAW": o.servo_output_raw_hz, "DEBUG_FLOAT_ARRAY": o.surf_hz,
+                "NAV_CONTROLLER_OUTPUT": o.nav_hz, "ATTITUDE_TARGET": o.nav_hz,
                 **{f"HIGHRES_IMU{i}": r.imu_hz for i in range(3)},
                 **{f"AIRSPEED{i}": r.airdata_hz for i in range(3)}}
     assert set(times) == set(expected)
