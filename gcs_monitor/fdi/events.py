@@ -31,6 +31,9 @@ class FaultType(StrEnum):
     OSCILLATION = "oscillation"
     STUCK = "stuck"
     RUNAWAY = "runaway"
+    # an actuator that still moves but acts less (part of a surface, or thrust, lost); the
+    # magnitude is the share of the effect lost, 1 for an engine out
+    LOSS_OF_EFFECTIVENESS = "loss_of_effectiveness"
     NOISE = "noise"
     LINK = "link"
     NO_DATA = "no_data"  # an instance of a redundant set stopped delivering valid values
