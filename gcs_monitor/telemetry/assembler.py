@@ -798,6 +798,7 @@ class FrameAssembler:
             "nav_setpoints": "NAV_CONTROLLER_OUTPUT" in s,
             "attitude_target": "ATTITUDE_TARGET" in s,
             "throttle": "VFR_HUD.throttle" in s,
+            "commands": "SERVO_OUTPUT_RAW" in s or "NAV_CONTROLLER_OUTPUT" in s,
             "frames": self.frames_out,
         }
 
@@ -809,7 +810,8 @@ def input_availability(source: FrameAssembler | Any) -> dict[str, Any]:
     they carry valid at least once). Keys: ``imu_instances``/``aoa_instances``/``cas_instances``
     (counts), ``imu_ids``/``aoa_ids``/``cas_ids`` (instance lists), ``attitude``,
     ``gps_velocity``, ``ssa``, ``baro``, ``static_pressure``, ``surfaces``, ``body_rates``,
-    ``servo_outputs``, ``nav_setpoints``, ``attitude_target``, ``throttle`` (bools), ``frames``.
+    ``servo_outputs``, ``nav_setpoints``, ``attitude_target``, ``throttle``, ``commands`` (servo
+    outputs or setpoints) (bools), ``frames``.
     """
     if isinstance(source, FrameAssembler):
         return source.availability()
@@ -844,4 +846,4 @@ def input_availability(source: FrameAssembler | Any) -> dict[str, Any]:
             "cas_instances": len(cas_ids), "cas_ids": cas_ids, "ssa": ssa, "baro": baro,
             "static_pressure": static, "surfaces": surf, "body_rates": rates,
             "servo_outputs": servo, "nav_setpoints": nav, "attitude_target": target,
-            "throttle": thr, "frames": n}
+            "throttle": thr, "commands": servo or nav, "frames": n}

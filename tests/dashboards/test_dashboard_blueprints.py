@@ -16,6 +16,8 @@ from dashboards.blueprints import (
     family_views,
     overview,
 )
+from gcs_monitor.families.actuators.config import ActuatorFamilyConfig
+from gcs_monitor.families.actuators.views import views as actuator_views
 from gcs_monitor.families.airdata.config import AirDataFamilyConfig
 from gcs_monitor.families.airdata.views import views as airdata_views
 from gcs_monitor.families.imu.config import ImuFamilyConfig
@@ -40,7 +42,10 @@ def test_family_views_and_origins() -> None:
     assert all(isinstance(v, rrb.TimeSeriesView) for v in air)
     imu = _views(family_tab(5, imu_views(ImuFamilyConfig())))
     assert len(imu) == 6 and {v.origin for v in imu} == {"/5/channels/acc", "/5/channels/gyro"}
-    assert len(_views(overview(5, family_views()))) == 5  # 4 family plots + coverage
+    act = _views(family_tab(5, actuator_views(ActuatorFamilyConfig())))
+    assert len(act) == 6  # positions, effectiveness, one residual per actuator
+    assert {v.origin for v in act} == {"/5/estimates/actuators_aircraft", "/5/channels/actuator"}
+    assert len(_views(overview(5, family_views()))) == 6  # 5 family plots + coverage
     assert isinstance(alarms_view(5), rrb.TextLogView) and alarms_view(5).origin == "/5/alarms"
     assert isinstance(attitude_view(5), rrb.Spatial3DView) and attitude_view(5).origin == "/5/world"
 

@@ -96,9 +96,13 @@ def test_thirty_percent_packet_loss(base_packets):
 
 
 def _damage(packets, rules):
+    """Repack every ``every``-th message of a type (counted within that type, so the damage does
+    not depend on which other messages the stream carries)."""
     out = []
-    for n, (t, p) in enumerate(packets):
+    count: dict[str, int] = {}
+    for t, p in packets:
         name = msg_name(p)
+        n = count[name] = count.get(name, -1) + 1
         for msg, every, phase, fields in rules:
             if name == msg and n % every == phase:
                 p = repack(p, **fields)

@@ -1,0 +1,624 @@
+"""Aircraft tier of the actuator family: surfaces and engine judged from what every autopilot
+sends (no surface feedback, as on small UAVs).
+
+One axis per actuator, each a linear model identified online by recursive least squares with
+forgetting (Keipour, Mousaei and Scherer, ICRA 2019: RLS on correlated input-output pairs),
+in one of two forms depending on what the telemetry carries:
+
+* **servo** -- the command is the actuator's own output (SERVO_OUTPUT_RAW): the body rate of
+  its axis against the commanded deflection scaled by dynamic pressure, the previous rate and
+  a coupling term (a control-effectiveness model)::
+
+      aileron   p_k = b u_a s + a p + c r + d
+      elevator  q_k = b u_e s + a q + c f_z + d
+      rudder    r_k = b u_r s + a r + c f_y + c' p + d
+      engine    f_x,k = b thr + a s + c f_z + d
+
+  every right-hand term taken at the previous control sample k-1 (causal: see
+  :meth:`AircraftTier._regression`), with ``s = (V / V_ref)^2``, ``f`` the specific force
+  (FRD) and ``thr`` the throttle 0..1;
+* **setpoint** -- no servo outputs: the command is the attitude error the autopilot is
+  correcting (NAV_CONTROLLER_OUTPUT minus ATTITUDE), a closed-loop model: roll rate against
+  the bank error, pitch rate against the pitch error, yaw rate against the coordinated-turn
+  yaw rate ``g sin(phi) cos(theta) / V``, and the body-x specific force against the energy
+  error ``aspd_error + g alt_error / V``.
+
+Two RLS per axis: a *reference* model with a long memory, frozen while any axis is suspected
+(so a fault is never learned as healthy), and a short-memory *tracking* regression of the
+reference's prediction error on the command alone, ``e = b (kappa - 1) x + c``: with the
+other terms held at their reference values it stays well conditioned where a full refit would
+trade the command's effect against correlated states. The
+reference's a priori prediction error is divided by its own running RMS over healthy flight
+(the normalised residual) and judged through the shared FDI layer: residual RMS window
+(Wan2018 eq. 18), n_D-of-N confirmation, alarm state machine with ``actuator_fault``. Only a
+thrust deficit counts for the engine. Isolation: among the confirmed axes, the one whose
+J/J_th dominates is the actuator whose command no longer acts.
+
+Two checks per axis: the *residual* check on the reference model's normalised prediction
+error (an abrupt change), and the *effectiveness* check on the loss of effectiveness the
+tracking regression finds, in standard errors (a parameter jump: the command no longer acts as
+it did). Either confirms the axis.
+
+Classification, by the command that no longer acts: ``kappa`` is the share of the command
+that still acts. A stuck
+surface has ``kappa ~ 0`` and sits where the response says it is: with servo outputs the
+position that explains the response, ``u + e / b`` (``b`` the reference effectiveness, ``e``
+its prediction error), averaged over the history ("stuck at zero" near neutral); without them
+the position is unobservable. ``0 < kappa < 1`` is a loss of effectiveness of ``1 - kappa``.
+The engine's loss is the thrust deficit over the reference's thrust at that throttle.
+
+An axis steps when its command has a new sample and the response (body rates, specific force)
+has changed since its last step: a logger that repeats its last IMU sample (ALFA's 20 Hz grid
+over a 2.5 Hz IMU) gives no new information, and the measured step rate is reported; below
+``min_rate_hz`` nothing is judged.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from gcs_monitor.core.constants import GRAVITY_STD_MPS2
+from gcs_monitor.core.types import ChannelId
+from gcs_monitor.families.actuators.config import (
+    ACTUATORS,
+    AircraftTierConfig,
+    ResidualCheckConfig,
+)
+from gcs_monitor.families.base import FamilyContext, Verdict
+from gcs_monitor.fdi.alarms import AlarmStateMachine
+from gcs_monitor.fdi.config import samples_in
+from gcs_monitor.fdi.confirmation import Confirmation, ConfirmationParams
+from gcs_monitor.fdi.events import AlarmEvent, AlarmKind, ChannelStatus, FaultType
+from gcs_monitor.fdi.records import Estimate, FamilyStatus
+from gcs_monitor.fdi.residuals import ResidualRms, RmsWindowParams
+from gcs_monitor.filters.rls import RlsState, rls_step
+from gcs_monitor.telemetry.frame import Frame
+from gcs_monitor.telemetry.period import SamplePeriod
+
+US_PER_S = 1_000_000
+ENGINE = 3
+ESTIMATOR = "actuators_aircraft"
+SERVO, SETPOINT = "servo", "setpoint"
+CHANNELS = tuple(ChannelId("actuator", i, name) for i, name in enumerate(ACTUATORS))
+# the effectiveness checks' statuses (their alarms are the actuator's own channel's)
+EFF_CHANNELS = tuple(ChannelId("actuator_effectiveness", i, name)
+                     for i, name in enumerate(ACTUATORS))
+RAD2DEG = 180.0 / math.pi
+
+
+@dataclass(frozen=True, slots=True)
+class Signals:
+    """What one frame offers the axes, SI (NaN / None where absent)."""
+
+    t_us: int
+    omega: tuple[float, float, float]  # body rates FRD
+    f: tuple[float, float, float]  # specific force FRD
+    euler: tuple[float, float, float] | None
+    airspeed_mps: float
+    u_rad: tuple[float, float, float]  # commanded deflections from the servo outputs
+    throttle: float  # 0..1
+    err_roll_rad: float  # nav_roll - roll
+    err_pitch_rad: float  # nav_pitch - pitch
+    energy_err_mps: float  # aspd_error + g alt_error / V
+    servo_t_us: int
+    nav_t_us: int
+    hud_t_us: int
+
+
+def _wrap(a: float) -> float:
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+class _Check:
+    """One residual check through the shared FDI layer: RMS window (Wan2018 eq. 18) and
+    n_D-of-N confirmation with hysteresis, sized with the axis's measured step period."""
+
+    __slots__ = ("cfg", "rms", "conf", "J", "faulty", "value")
+
+    def __init__(self, cfg: ResidualCheckConfig, period_s: float) -> None:
+        n = samples_in(cfg.window_s, period_s)
+        self.cfg = cfg
+        self.rms = ResidualRms(RmsWindowParams(rms_window_n=n))
+        self.conf = Confirmation(ConfirmationParams(
+            detect_n=max(1, round(cfg.detect_ratio * n)), eval_n=n, clear_ratio=cfg.clear_ratio,
+            clear_n=samples_in(cfg.clear_s, period_s), latch=cfg.latch))
+        self.J = self.value = 0.0
+        self.faulty = False
+
+    def update(self, value: float) -> None:
+        self.value = value
+        self.J = self.rms.update(value)
+        self.faulty = self.conf.update(self.J, self.cfg.threshold)
+
+    @property
+    def ratio(self) -> float:
+        return self.J / self.cfg.threshold
+
+    @property
+    def suspected(self) -> bool:
+        return self.faulty or self.J > self.cfg.clear_ratio * self.cfg.threshold
+
+
+@dataclass
+class _Axis:
+    """One actuator's models and FDI: the residual check on the reference model's normalised
+    prediction error, the effectiveness check on the tracking model's loss of effectiveness."""
+
+    index: int
+    channel: ChannelId
+    res_cfg: ResidualCheckConfig
+    eff_cfg: ResidualCheckConfig
+    one_sided: bool
+    mode: str = ""
+    ref: RlsState | None = None
+    trk: RlsState | None = None
+    sigma2: float = math.nan
+    sigma_n: int = 0  # samples in sigma2 (an exact mean until its memory is reached)
+    e_ref: float = 0.0  # the reference model's a priori prediction error of this step
+    prev: Signals | None = None
+    response: tuple[float, ...] = ()
+    cmd_t_us: int = -1
+    t_start_us: int = 0
+    period: SamplePeriod = field(default_factory=SamplePeriod)
+    res: _Check | None = None
+    eff: _Check | None = None
+    alarm: AlarmStateMachine | None = None
+    nu: float = 0.0
+    z: float = 0.0  # loss of effectiveness, in standard errors
+    judged: bool = False
+    hist: deque[tuple[int, float, float, float]] = field(default_factory=deque)
+    next_class_us: int = 0
+    effectiveness: float = math.nan
+    position_rad: float = math.nan
+    command_rad: float = math.nan
+
+    @property
+    def faulty(self) -> bool:
+        return any(c is not None and c.faulty for c in (self.res, self.eff))
+
+    @property
+    def suspected(self) -> bool:
+        return any(c is not None and c.suspected for c in (self.res, self.eff))
+
+    @property
+    def ratio(self) -> float:
+        """The larger J / J_th of the two checks."""
+        return max((c.ratio for c in (self.res, self.eff) if c is not None), default=0.0)
+
+    @property
+    def J(self) -> float:
+        """J of the check with the larger J / J_th (what an alarm reports)."""
+        checks = [c for c in (self.res, self.eff) if c is not None]
+        return max(checks, key=lambda c: c.ratio).J if checks else 0.0
+
+    @property
+    def threshold(self) -> float:
+        checks = [c for c in (self.res, self.eff) if c is not None]
+        return max(checks, key=lambda c: c.ratio).cfg.threshold if checks else math.nan
+
+    def reset(self, mode: str, t_us: int) -> None:
+        self.mode = mode
+        self.ref = self.trk = None
+        self.sigma2 = math.nan
+        self.sigma_n = 0
+        self.prev = None
+        self.t_start_us = t_us
+        self.period.reset()
+        self.hist.clear()
+        self.res = self.eff = None  # rebuilt with the new step period
+        self.nu = self.z = 0.0
+        self.effectiveness = self.position_rad = math.nan
+
+
+class AircraftTier:
+    """The aircraft tier of one vehicle (see the module docstring)."""
+
+    name = "aircraft"
+
+    def __init__(self, cfg: AircraftTierConfig, ctx: FamilyContext) -> None:
+        self.cfg = cfg
+        self.ctx = ctx
+        fdi = cfg.fdi
+        self.axes = [_Axis(i, CHANNELS[i], fdi.engine if i == ENGINE else fdi.surface,
+                           fdi.effectiveness, one_sided=i == ENGINE)
+                     for i in range(len(CHANNELS))]
+        self._v_ref = cfg.model.airspeed_ref_mps
+        self._seen_inputs = False
+        self._estimate: Estimate | None = None
+        self._max_defl = cfg.outputs.max_deflection_rad
+
+    # -- signals ---------------------------------------------------------------------------
+    def _signals(self, frame: Frame) -> Signals | None:
+        imu = frame.primary_imu
+        if imu is None:
+            return None
+        w = frame.att_rate_frd_radps
+        omega = tuple(w.tolist()) if w is not None else tuple(imu.omega_frd_radps.tolist())
+        f = tuple(imu.acc_frd_mps2.tolist())
+        e = tuple(frame.euler_rad.tolist()) if frame.euler_rad is not None else None
+        nan = math.nan
+        hud = frame.hud
+        v = hud.airspeed_mps if hud is not None and hud.airspeed_mps > 0.0 else nan
+        if v != v:
+            cas = float(frame.cas_mps[0]) if len(frame.cas_mps) else nan
+            v = cas if math.isfinite(cas) and cas > 0.0 else nan
+        if v != v and frame.gps_vel_ned_mps is not None:
+            v = float(np.linalg.norm(frame.gps_vel_ned_mps))
+        out = self.cfg.outputs
+        u = [nan, nan, nan]
+        thr = nan
+        servo = frame.servo
+        if servo is not None:
+            for k, ch in enumerate(out.channels()):
+                if ch:
+                    pwm = servo.pwm_us[ch - 1]
+                    u[k] = (pwm - out.pwm_center_us) / out.pwm_half_range_us * self._max_defl[k]
+            if out.throttle_channel:
+                pwm = servo.pwm_us[out.throttle_channel - 1]
+                thr = (pwm - out.throttle_min_us) / (out.throttle_max_us - out.throttle_min_us)
+        if thr != thr and hud is not None:
+            thr = hud.throttle
+        nav = frame.nav
+        er = ep = ee = nan
+        if nav is not None and e is not None:
+            er = _wrap(nav.nav_roll_rad - e[0])
+            ep = _wrap(nav.nav_pitch_rad - e[1])
+        if nav is not None and math.isfinite(v) and v > 1.0:
+            ee = nav.aspd_error_mps + GRAVITY_STD_MPS2 * nav.alt_error_m / v
+        return Signals(frame.t_us, omega, f, e, v, (u[0], u[1], u[2]), thr, er, ep, ee,
+                       servo.t_us if servo is not None else -1,
+                       nav.t_us if nav is not None else -1,
+                       hud.t_us if hud is not None else -1)
+
+    def _mode(self, ax: _Axis, s: Signals) -> str:
+        src = self.cfg.command_source
+        if ax.index == ENGINE:
+            if src != SETPOINT and math.isfinite(s.throttle):
+                return SERVO
+            return SETPOINT if src != SERVO and math.isfinite(s.energy_err_mps) else ""
+        if src != SETPOINT and math.isfinite(s.u_rad[ax.index]):
+            return SERVO
+        if src == SERVO:
+            return ""
+        if ax.index == 0:
+            ok = math.isfinite(s.err_roll_rad)
+        elif ax.index == 1:
+            ok = math.isfinite(s.err_pitch_rad)
+        else:  # the coordinated-turn yaw rate needs attitude and airspeed
+            ok = s.euler is not None and math.isfinite(s.airspeed_mps)
+        return SETPOINT if ok else ""
+
+    def _command_t(self, ax: _Axis, s: Signals) -> int:
+        """Time stamp of the sample the axis's command comes from."""
+        if ax.mode == SERVO:
+            if ax.index == ENGINE and not self.cfg.outputs.throttle_channel:
+                return s.hud_t_us
+            return s.servo_t_us
+        if ax.index == 2 and s.nav_t_us < 0:  # setpoint yaw needs attitude and airspeed only
+            return s.t_us
+        return s.nav_t_us
+
+    def _scale(self, s: Signals) -> float:
+        v = s.airspeed_mps
+        if not math.isfinite(v):
+            return 1.0
+        if self._v_ref <= 0.0:
+            self._v_ref = v
+        r = v / self._v_ref
+        return r * r
+
+    def _regression(self, ax: _Axis, s: Signals, prev: Signals) -> tuple[float, list[float]]:
+        """(y, phi) of the axis; phi[0] is the command (module docstring).
+
+        The command and the other terms are the previous sample's: the response at k follows
+        the command issued before it, while the command at k already reacts to the response
+        at k through the autopilot's feedback (which would bias its effect to zero), and the
+        current states are partly the command's own effect (f_z follows the elevator, f_y the
+        rudder) and would absorb it.
+        """
+        sq = self._scale(prev)
+        i = ax.index
+        w, wp, fp = s.omega, prev.omega, prev.f
+        if i == ENGINE:
+            cmd = prev.throttle if ax.mode == SERVO else prev.energy_err_mps
+            return s.f[0], [cmd, sq, fp[2], 1.0]
+        if ax.mode == SERVO:
+            cmd = prev.u_rad[i] * sq
+        elif i == 0:
+            cmd = prev.err_roll_rad
+        elif i == 1:
+            cmd = prev.err_pitch_rad
+        else:
+            e = prev.euler
+            assert e is not None
+            cmd = GRAVITY_STD_MPS2 * math.sin(e[0]) * math.cos(e[1]) / max(prev.airspeed_mps,
+                                                                          1.0)
+        if i == 0:  # no f_y: the aileron's own side force is in it (Cy_da)
+            return w[0], [cmd, wp[0], wp[2], 1.0]
+        if i == 1:
+            return w[1], [cmd, wp[1], fp[2], 1.0]
+        return w[2], [cmd, wp[2], fp[1], wp[0], 1.0]
+
+    # -- the three phases -----------------------------------------------------------------------
+    def predict(self, frame: Frame) -> Signals | None:
+        return self._signals(frame)
+
+    def judge(self, frame: Frame, s: Signals | None) -> Verdict:
+        t = frame.t_us
+        if s is None:
+            return Verdict(FamilyStatus(self.name, t, False, sample=False,
+                                        reason="no IMU sample", inputs=self._seen_inputs))
+        stepped: list[tuple[_Axis, float, list[float], float]] = []
+        reasons: list[str] = []
+        for ax in self.axes:
+            step = self._step_axis(ax, s, reasons)
+            if step is not None:
+                stepped.append(step)
+        if not self._seen_inputs and any(ax.mode for ax in self.axes):
+            self._seen_inputs = True
+        statuses = [] if self.ctx.statuses else None
+        events = self._decide(t, stepped, statuses)
+        freeze = any(ax.suspected for ax in self.axes)
+        for ax, y, phi, sq in stepped:
+            self._learn(ax, y, phi, sq, freeze)
+        judged = any(ax.judged for ax, *_ in stepped)
+        reason = "" if judged else ("; ".join(dict.fromkeys(reasons)) if reasons
+                                    else "no new control sample")
+        status = FamilyStatus(self.name, t, judged, sample=bool(stepped), reason=reason,
+                              inputs=self._seen_inputs)
+        if stepped:
+            self._estimate = self._estimates(t, frame)
+        return Verdict(status, events=events, channels=statuses or [])
+
+    def update(self, frame: Frame, verdict: Verdict) -> list[Estimate]:
+        return [self._estimate] if self._estimate is not None else []
+
+    # -- per axis ----------------------------------------------------------------------------
+    def _step_axis(self, ax: _Axis, s: Signals,
+                   reasons: list[str]) -> tuple[_Axis, float, list[float], float] | None:
+        """Advance one axis by a new control sample; (axis, y, phi, scale) when it stepped."""
+        ax.judged = False
+        mode = self._mode(ax, s)
+        if mode != ax.mode:
+            ax.reset(mode, s.t_us)
+        if not mode:
+            reasons.append(f"{ax.channel.axis}: no command (servo output or setpoint)")
+            return None
+        cmd_t = self._command_t(ax, s)
+        response = s.omega + s.f
+        if cmd_t <= ax.cmd_t_us or response == ax.response:
+            return None  # no new command, or the response repeats (a logger's forward fill)
+        ax.cmd_t_us, ax.response = cmd_t, response
+        prev = ax.prev
+        ax.prev = s
+        if prev is None or s.t_us - prev.t_us > self.cfg.model.max_step_s * US_PER_S:
+            ax.period.gap()
+            ax.period.add(s.t_us)
+            return None
+        ax.period.add(s.t_us)
+        y, phi = self._regression(ax, s, prev)
+        if not (math.isfinite(y) and all(math.isfinite(x) for x in phi)):
+            reasons.append(f"{ax.channel.axis}: inputs not finite")
+            return None
+        m = self.cfg.model
+        if ax.ref is None:
+            ax.ref = RlsState.initial(len(phi), m.initial_covariance)
+            ax.trk = RlsState.initial(2, m.initial_covariance)
+        phi_v = np.array(phi)
+        e = y - float(phi_v @ ax.ref.theta)
+        ax.e_ref = e
+        floor = m.min_accel_sigma_mps2 if ax.index == ENGINE else m.min_rate_sigma_radps
+        sigma = math.sqrt(max(ax.sigma2, floor * floor)) if ax.sigma2 == ax.sigma2 else math.inf
+        nu = e / sigma
+        if ax.one_sided:
+            nu = min(nu, 0.0)
+        ax.nu = nu
+        sq = self._scale(prev)
+        ax.hist.append((s.t_us, phi[0], e, sq))
+        horizon = s.t_us - round(self.cfg.fdi.classify.history_s * US_PER_S)
+        while ax.hist and ax.hist[0][0] < horizon:
+            ax.hist.popleft()
+        why = self._not_judged(ax, s)
+        if why:
+            reasons.append(f"{ax.channel.axis}: {why}")
+        else:
+            ax.judged = True
+            if ax.res is None:
+                self._build_fdi(ax)
+            assert ax.res is not None and ax.eff is not None
+            scale = self._convergence(ax, s.t_us)
+            ax.res.update(nu / scale)
+            # the effectiveness check needs a command of the actuator's own: not the engine
+            # (a thrust deficit is the residual's), not the yaw axis on setpoints
+            own = ax.index != ENGINE and (ax.mode == SERVO or ax.index != 2)
+            ax.z = self._loss_z(ax) if own else 0.0
+            ax.eff.update(max(ax.z, 0.0) / scale)
+        ax.command_rad = prev.u_rad[ax.index] if ax.index != ENGINE and ax.mode == SERVO \
+            else math.nan
+        return ax, y, phi, sq
+
+    def _not_judged(self, ax: _Axis, s: Signals) -> str:
+        m = self.cfg.model
+        if s.t_us - ax.t_start_us < m.warmup_s * US_PER_S or ax.sigma2 != ax.sigma2:
+            return "warm-up"
+        period = ax.period.seconds()
+        if math.isfinite(period) and 1.0 / period < self.cfg.min_rate_hz:
+            return (f"control samples at {1.0 / period:.1f} Hz, below the "
+                    f"{self.cfg.min_rate_hz:g} Hz the aircraft tier needs")
+        v = s.airspeed_mps
+        if math.isfinite(v) and v < m.min_airspeed_mps:
+            return f"airspeed {v:.1f} m/s below {m.min_airspeed_mps:g} m/s"
+        return ""
+
+    def _convergence(self, ax: _Axis, t_us: int) -> float:
+        """How much the checks' values are divided by while the reference model converges:
+        ``convergence_factor`` at the end of the warm-up, 1 after ``convergence_s`` more
+        (a model that has not yet seen every manoeuvre is judged with a wider margin)."""
+        m = self.cfg.model
+        since = (t_us - ax.t_start_us) / US_PER_S - m.warmup_s
+        if since >= m.convergence_s:
+            return 1.0
+        return 1.0 + (m.convergence_factor - 1.0) * (1.0 - max(since, 0.0) / m.convergence_s)
+
+    def _build_fdi(self, ax: _Axis) -> None:
+        """The two checks, sized with the axis's measured step period, and its alarm."""
+        period = ax.period.seconds()
+        if not math.isfinite(period):
+            period = 0.1
+        ax.res = _Check(ax.res_cfg, period)
+        ax.eff = _Check(ax.eff_cfg, period)
+        if ax.alarm is None:
+            ax.alarm = AlarmStateMachine(ax.channel, AlarmKind.ACTUATOR_FAULT, ESTIMATOR,
+                                         params=self.ctx.alarm, vehicle=self.ctx.vehicle)
+
+    @staticmethod
+    def _loss_z(ax: _Axis) -> float:
+        """The effectiveness lost, in standard errors: the tracking regression's slope of the
+        reference residual on the command is ``b (kappa - 1)``; ``-slope sign(b_ref) /
+        (sigma sqrt(P_00))`` with ``sigma`` the healthy residual RMS (0 before it exists; large
+        ``P_00``, i.e. a command without excitation, gives no evidence)."""
+        ref, trk = ax.ref, ax.trk
+        if ref is None or trk is None or not ax.sigma2 > 0.0:
+            return 0.0
+        se = math.sqrt(ax.sigma2 * float(trk.P[0, 0]))
+        if not se > 0.0:
+            return 0.0
+        return -float(trk.theta[0]) * (1.0 if ref.theta[0] >= 0.0 else -1.0) / se
+
+    def _learn(self, ax: _Axis, y: float, phi: list[float], sq: float, freeze: bool) -> None:
+        """Tracking model always; reference model and residual RMS only in healthy flight."""
+        assert ax.ref is not None and ax.trk is not None and ax.prev is not None
+        m = self.cfg.model
+        period = ax.period.seconds()
+        dt = period if math.isfinite(period) else 0.1
+        phi_v = np.array(phi)
+        tr = m.covariance_trace_max
+        # tracking regression of the reference residual on the command: e = b (kappa - 1) x + c
+        ax.trk, _ = rls_step(ax.trk, np.array((phi[0], 1.0)), ax.e_ref,
+                             math.exp(-dt / m.tracking_memory_s), trace_max=tr)
+        if not freeze:
+            ax.ref, up = rls_step(ax.ref, phi_v, y, math.exp(-dt / m.reference_memory_s),
+                                  trace_max=tr)
+            # the residual RMS over healthy flight, from half-way through the warm-up (the
+            # reference model's start-up errors are not its healthy level): an exact mean of
+            # the squared a priori errors until the memory is reached, exponential after
+            assert ax.prev is not None
+            if ax.prev.t_us - ax.t_start_us >= 0.5 * m.warmup_s * US_PER_S:
+                ax.sigma_n += 1
+                w = max(1.0 / ax.sigma_n, 1.0 - math.exp(-dt / m.sigma_memory_s))
+                e2 = up.error * up.error
+                ax.sigma2 = e2 if ax.sigma_n == 1 else (1.0 - w) * ax.sigma2 + w * e2
+        b_ref = float(ax.ref.theta[0])
+        ax.effectiveness = 1.0 + float(ax.trk.theta[0]) / b_ref if abs(b_ref) > 1e-9 \
+            else math.nan
+        if ax.index != ENGINE:
+            if ax.mode == SERVO and abs(b_ref) > 1e-9 and sq > 0.0:
+                e = y - float(phi_v @ ax.ref.theta)
+                ax.position_rad = (phi[0] + e / b_ref) / sq
+            else:
+                ax.position_rad = math.nan
+
+    # -- decisions ---------------------------------------------------------------------------
+    def _decide(self, t_us: int, stepped: list[tuple[_Axis, float, list[float], float]],
+                statuses: list[ChannelStatus] | None) -> list[AlarmEvent]:
+        """Isolation among the confirmed axes, alarm transitions, channel statuses."""
+        fdi = self.cfg.fdi
+        iso = fdi.isolation_ratio
+        ratios = {ax.index: ax.ratio for ax in self.axes if ax.judged and ax.faulty}
+        top = max(ratios.values(), default=0.0)
+        # a second actuator alarm must dominate the active one: a fault disturbs the other
+        # axes' models too (cross-coupling), later than its own
+        active = max((ax.ratio for ax in self.axes if ax.alarm is not None and ax.alarm.active),
+                     default=0.0)
+        events: list[AlarmEvent] = []
+        for ax in self.axes:
+            if statuses is not None and ax.judged:
+                assert ax.res is not None and ax.eff is not None
+                statuses.append(ChannelStatus(ax.channel, t_us, ax.nu, ax.res.J,
+                                              ax.res.cfg.threshold, ax.res.faulty, ESTIMATOR))
+                statuses.append(ChannelStatus(EFF_CHANNELS[ax.index], t_us, ax.z, ax.eff.J,
+                                              ax.eff.cfg.threshold, ax.eff.faulty, ESTIMATOR))
+            sm = ax.alarm
+            if sm is None or not ax.judged:
+                continue
+            r = ratios.get(ax.index, 0.0)
+            raise_it = ax.faulty and (sm.active or (r >= iso * top
+                                                    and r >= fdi.second_fault_ratio * active))
+            if raise_it:
+                if sm.active and t_us < ax.next_class_us:
+                    continue
+                ax.next_class_us = t_us + round(self.cfg.fdi.classify.reclassify_s * US_PER_S)
+                ft, mag, msg = self._classify(ax)
+                events += sm.step(t_us, True, fault_type=ft, magnitude=mag, rms=ax.J,
+                                  threshold=ax.threshold, message=msg)
+            elif sm.active:
+                events += sm.step(t_us, False, rms=ax.J, threshold=ax.threshold,
+                                  message=f"{ax.channel.axis}: response matches the model again")
+        return events
+
+    def _classify(self, ax: _Axis) -> tuple[FaultType, float, str]:
+        """Fault class and magnitude from the history (module docstring)."""
+        c = self.cfg.fdi.classify
+        name = ax.channel.axis
+        assert ax.ref is not None
+        b = float(ax.ref.theta[0])
+        h = np.array([(x, e, sq) for _, x, e, sq in ax.hist])
+        src = "servo outputs" if ax.mode == SERVO else "setpoints"
+        if len(h) < 4 or abs(b) < 1e-9:
+            return FaultType.UNKNOWN, math.nan, f"{name}: response off its model ({src})"
+        x, e, sq = h[:, 0], h[:, 1], h[:, 2]
+        if ax.index == ENGINE:
+            deficit = -float(np.mean(e))
+            if ax.mode == SERVO:
+                thrust = b * float(np.mean(x))
+                loss = min(1.0, max(0.0, deficit / thrust)) if thrust > 1e-9 else math.nan
+                what = "engine out" if loss >= 0.8 else f"{100 * loss:.0f} % of thrust lost"
+                return (FaultType.LOSS_OF_EFFECTIVENESS, loss,
+                        f"engine: {what} (thrust deficit {deficit:.2f} m/s^2 at throttle "
+                        f"{float(np.mean(x)):.2f})")
+            return (FaultType.LOSS_OF_EFFECTIVENESS, math.nan,
+                    f"engine: thrust deficit {deficit:.2f} m/s^2 against the energy the "
+                    f"autopilot asks for (no throttle: loss not quantified)")
+        # the share of the command that still acts: the tracking model's effectiveness over
+        # the reference's (the tracking model has refitted every term on recent flight)
+        kappa = ax.effectiveness
+        if not math.isfinite(kappa):
+            return FaultType.UNKNOWN, math.nan, f"{name}: response off its model ({src})"
+        if kappa < c.stuck_gain:
+            if ax.mode != SERVO:
+                return (FaultType.STUCK, math.nan,
+                        f"{name}: stuck or without effect ({kappa:.2f} of the command acts; "
+                        "position unobservable without servo outputs)")
+            # the surface position that explains the response, averaged over the history
+            pos = float(np.mean((x + e / b) / sq))
+            zero = abs(pos) < c.zero_position_ratio * self._max_defl[ax.index]
+            where = "zero" if zero else f"{pos * RAD2DEG:.1f} deg"
+            return FaultType.STUCK, pos, f"{name}: stuck at {where} ({kappa:.2f} of the " \
+                f"command acts)"
+        if kappa < 1.0 - 0.5 * c.stuck_gain:
+            loss = 1.0 - kappa
+            return (FaultType.LOSS_OF_EFFECTIVENESS, loss,
+                    f"{name}: {100 * loss:.0f} % of its effectiveness lost ({src})")
+        return (FaultType.UNKNOWN, math.nan,
+                f"{name}: response off its model, not explained by the command ({src})")
+
+    # -- estimates ---------------------------------------------------------------------------
+    def _estimates(self, t_us: int, frame: Frame) -> Estimate:
+        nan = math.nan
+        axes = self.axes
+        measured = (tuple(frame.surf_pos_rad.tolist()) if frame.surf_pos_rad is not None
+                    else (nan, nan, nan))
+        states = {
+            "command_rad": np.array([a.command_rad for a in axes[:3]]),
+            "estimated_position_rad": np.array([a.position_rad for a in axes[:3]]),
+            "measured_position_rad": np.array(measured),
+            "effectiveness": np.array([a.effectiveness for a in axes]),
+            "normalised_residual": np.array([a.nu for a in axes]),
+        }
+        virtual = {a.channel: a.position_rad for a in axes[:3] if a.position_rad == a.position_rad}
+        return Estimate(ESTIMATOR, t_us, states=states, virtual=virtual,
+                        residuals={a.channel: a.nu for a in axes if a.judged})

@@ -1,0 +1,75 @@
+"""The actuator family: tiers that judge the control surfaces and the engine, composed.
+
+A tier is one object with the family protocol (``predict`` / ``judge`` -> Verdict /
+``update``, :class:`gcs_monitor.families.base.Family`) built from its configuration section
+and the family context:
+
+* ``aircraft`` (:mod:`.aircraft`): surfaces and engine from servo outputs or setpoints and the
+  aircraft's response, for any autopilot;
+* ``servo`` (Lu2017 IOTSEKF / RTS-EKF per surface where surface feedback exists): added as one
+  entry of :data:`TIERS` when it lands.
+
+Per Frame every enabled tier runs its three phases; the family's verdict gathers the tiers'
+events, channel statuses and estimates, and judges the Frame when any tier did.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from gcs_monitor.families.actuators.aircraft import AircraftTier
+from gcs_monitor.families.actuators.config import ActuatorFamilyConfig
+from gcs_monitor.families.base import Family, FamilyContext, Verdict
+from gcs_monitor.fdi.records import Estimate, FamilyStatus
+from gcs_monitor.telemetry.frame import Frame
+
+# (configuration field of ActuatorFamilyConfig, builder) of every tier, in the order they run
+TIERS: tuple[tuple[str, Callable[[Any, FamilyContext], Family]], ...] = (
+    ("aircraft", AircraftTier),
+)
+# the rates of the driving streams the tiers accept (control samples: servo outputs, setpoints)
+RATE_HZ = (2.0, 400.0)
+
+
+class ActuatorFamily:
+    """Actuator and engine faults of one vehicle (see the module docstring)."""
+
+    name = "actuators"
+
+    def __init__(self, cfg: ActuatorFamilyConfig, ctx: FamilyContext) -> None:
+        self.cfg = cfg
+        self.ctx = ctx
+        self.tiers: list[Family] = [build(getattr(cfg, field), ctx) for field, build in TIERS
+                                    if getattr(cfg, field).enabled]
+
+    def predict(self, frame: Frame) -> list[Any]:
+        return [tier.predict(frame) for tier in self.tiers]
+
+    def judge(self, frame: Frame, prediction: list[Any]) -> Verdict:
+        t = frame.t_us
+        if not self.tiers:
+            return Verdict(FamilyStatus(self.name, t, False, reason="no tier enabled",
+                                        inputs=False))
+        verdicts = [tier.judge(frame, p) for tier, p in zip(self.tiers, prediction, strict=True)]
+        judged = any(v.status.judged for v in verdicts)
+        reasons = [f"{tier.name}: {v.status.reason}" for tier, v in zip(self.tiers, verdicts,
+                                                                           strict=True)
+                   if not v.status.judged and v.status.reason]
+        out = Verdict(FamilyStatus(
+            self.name, t, judged, sample=any(v.status.sample for v in verdicts),
+            reason="" if judged else "; ".join(reasons),
+            inputs=any(v.status.inputs for v in verdicts)))
+        self._verdicts = verdicts
+        for v in verdicts:
+            out.events += v.events
+            out.channels += v.channels
+            out.sets += v.sets
+            out.fused.update(v.fused)
+        return out
+
+    def update(self, frame: Frame, verdict: Verdict) -> list[Estimate]:
+        out: list[Estimate] = []
+        for tier, v in zip(self.tiers, self._verdicts, strict=True):
+            out += tier.update(frame, v)
+        return out

@@ -1,0 +1,128 @@
+"""Aircraft tier of the actuator family on hand-made Frames of a known linear aircraft: the
+reference models converge to the true coefficients, a stuck aileron is raised on the aileron
+with its class and position, nothing is raised in healthy flight, missing inputs are reported
+and a logger's repeated samples are not taken as measurements."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from gcs_monitor.core.types import ChannelId
+from gcs_monitor.families.actuators.aircraft import AircraftTier
+from gcs_monitor.families.actuators.config import ActuatorFamilyConfig
+from gcs_monitor.families.actuators.family import ActuatorFamily
+from gcs_monitor.families.base import FamilyContext
+from gcs_monitor.fdi.events import AlarmKind, AlarmState, FaultType
+from gcs_monitor.telemetry.frame import Frame, HudSample, ImuSample, ServoOutputs
+
+DT = 0.02  # 50 Hz servo outputs and body rates
+MAX_DEFL = 0.4  # rad at full pulse (ServoMapConfig default)
+# p_k = A p_{k-1} + B u_{k-1} (the aileron axis; the other axes alike with their own surface)
+A, B = 0.8, 2.0
+CTX = FamilyContext(vehicle=1, stale_after_s=0.5)
+
+
+def _frames(duration_s: float, *, stuck_at_s: float | None = None, stuck_rad: float = 0.05,
+            seed: int = 0, repeat: int = 1):
+    """Frames of a linear aircraft driven by random surface commands (every ``repeat``-th
+    response is a new measurement, the others repeat it, as a logger's forward fill)."""
+    rng = np.random.default_rng(seed)
+    w = np.zeros(3)
+    u_prev = np.zeros(3)
+    held = None
+    for k in range(round(duration_s / DT)):
+        t = k * DT
+        t_us = round(t * 1e6)
+        u = 0.1 * np.sin(2 * math.pi * np.array([0.3, 0.23, 0.17]) * t + np.arange(3)) \
+            + 0.03 * rng.standard_normal(3)
+        acting = u_prev.copy()
+        if stuck_at_s is not None and t >= stuck_at_s:
+            acting[0] = stuck_rad
+        w = A * w + B * acting + 0.002 * rng.standard_normal(3)
+        u_prev = u
+        if held is None or k % repeat == 0:
+            held = (w.copy(), np.array([0.0, 0.0, -9.81]) + 0.01 * rng.standard_normal(3))
+        pwm = tuple(float(round(1500 + 500 * x / MAX_DEFL)) for x in u) + (1500.0,) + (
+            math.nan,) * 12
+        yield Frame(t_us, [ImuSample(t_us, 0, held[1], held[0])], euler_rad=np.zeros(3),
+                    att_age_s=0.0, att_rate_frd_radps=held[0],
+                    servo=ServoOutputs(t_us, pwm, tuple((x - 1500) / 500 for x in pwm)),
+                    servo_age_s=0.0, hud=HudSample(t_us, 25.0, 25.0, 0.0, 0.5), hud_age_s=0.0)
+
+
+def _run(tier, frames):
+    events, statuses = [], []
+    for f in frames:
+        v = tier.judge(f, tier.predict(f))
+        tier.update(f, v)
+        events += v.events
+        statuses.append(v.status)
+    return events, statuses
+
+
+def _tier() -> AircraftTier:
+    return AircraftTier(ActuatorFamilyConfig().aircraft, CTX)
+
+
+def test_reference_model_converges_to_the_true_coefficients():
+    tier = _tier()
+    events, statuses = _run(tier, _frames(40.0))
+    ax = tier.axes[0]
+    assert ax.mode == "servo" and ax.ref is not None
+    # phi = [u s, p_prev, r_prev, 1] with s = 1 (constant airspeed): theta = [B, A, 0, 0];
+    # tolerance: 2000 samples of 0.002 rad/s noise against ~0.1 rad of command
+    np.testing.assert_allclose(ax.ref.theta, [B, A, 0.0, 0.0], atol=0.02)
+    assert not [e for e in events if e.kind is AlarmKind.ACTUATOR_FAULT]  # healthy flight
+    assert statuses[-1].judged and statuses[-1].inputs
+
+
+def test_stuck_aileron_is_isolated_with_its_position():
+    tier = _tier()
+    events, _ = _run(tier, _frames(45.0, stuck_at_s=35.0, stuck_rad=0.05))
+    raised = [e for e in events if e.state is AlarmState.RAISED]
+    assert raised, "no alarm"
+    first = raised[0]
+    assert first.kind is AlarmKind.ACTUATOR_FAULT
+    assert first.channel == ChannelId("actuator", 0, "aileron")
+    assert {e.channel for e in raised} == {first.channel}  # no other surface
+    assert 35.0 < first.t_us * 1e-6 < 36.0  # within a second of the jam
+    last = [e for e in events if e.channel == first.channel][-1]
+    assert last.fault_type is FaultType.STUCK
+    assert abs(last.magnitude - 0.05) < 0.01  # rad: the position that explains the response
+    assert "stuck at" in last.message
+
+
+def test_repeated_samples_are_not_measurements_and_slow_streams_are_not_judged():
+    tier = _tier()
+    _, statuses = _run(tier, _frames(30.0, repeat=5))  # new responses at 10 Hz of 50 Hz frames
+    period = tier.axes[0].period.seconds()
+    assert abs(period - 5 * DT) < 1e-9
+    slow = AircraftTier(dataclasses.replace(ActuatorFamilyConfig().aircraft, min_rate_hz=20.0),
+                        CTX)
+    _, statuses = _run(slow, _frames(30.0, repeat=5))
+    assert not any(s.judged for s in statuses)
+    last = [s for s in statuses if s.sample][-1]  # the last frame with a new control sample
+    assert "10.0 Hz, below the 20 Hz" in last.reason
+
+
+def test_without_commands_the_family_says_it_cannot_judge():
+    fam = ActuatorFamily(ActuatorFamilyConfig(), CTX)
+    for f in _frames(5.0):
+        bare = dataclasses.replace(f, servo=None, hud=None, euler_rad=None)
+        v = fam.judge(bare, fam.predict(bare))
+        assert fam.update(bare, v) == []
+    assert not v.status.judged and not v.status.inputs
+    assert "no command" in v.status.reason
+
+
+@pytest.mark.parametrize("source", ["servo", "setpoint"])
+def test_command_source_is_respected(source):
+    cfg = dataclasses.replace(ActuatorFamilyConfig().aircraft, command_source=source)
+    tier = AircraftTier(cfg, CTX)
+    _run(tier, _frames(3.0))
+    # the frames carry servo outputs and no setpoints: only "servo" finds a command
+    assert (tier.axes[0].mode == "servo") is (source == "servo")
