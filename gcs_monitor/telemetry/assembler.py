@@ -751,6 +751,7 @@ class FrameAssembler:
             reset=self._next_reset_flag, gps_fix=self._gps_fix,
             primary=self._primary if self._primary is not None else 0,
             att_rate_frd_radps=self._att_rate if att_age <= stale else None,
+            mav_type=self.stats.mav_type,
         )
         if self._servo is not None or self._nav is not None or self._hud is not None \
                 or self._att_target is not None:

@@ -157,6 +157,7 @@ class Frame:
     reset: bool = False  # first frame after an assembler reset (autopilot reboot)
     # the IMU instance whose sample this frame is (it switches when the primary goes silent)
     primary: int = 0
+    mav_type: int = -1  # the vehicle's HEARTBEAT type (MAV_TYPE), -1 before one arrived
     # control telemetry (actuator family): body rates of ATTITUDE, servo outputs, setpoints
     att_rate_frd_radps: Vec3 | None = None
     servo: ServoOutputs | None = None

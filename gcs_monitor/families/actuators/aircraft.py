@@ -88,6 +88,9 @@ CHANNELS = tuple(ChannelId("actuator", i, name) for i, name in enumerate(ACTUATO
 EFF_CHANNELS = tuple(ChannelId("actuator_effectiveness", i, name)
                      for i, name in enumerate(ACTUATORS))
 RAD2DEG = 180.0 / math.pi
+# MAV_TYPE of the vehicles whose control surfaces and engine the tier models: fixed wing and the
+# VTOL types that fly as aeroplanes (common.xml: 1; 19-25); -1 (no HEARTBEAT yet) is judged
+FIXED_WING_TYPES = frozenset({-1, 1, 19, 20, 21, 22, 23, 24, 25})
 
 
 @dataclass(frozen=True, slots=True)
@@ -259,7 +262,8 @@ class AircraftTier:
                     u[k] = (pwm - out.pwm_center_us) / out.pwm_half_range_us * self._max_defl[k]
             if out.throttle_channel:
                 pwm = servo.pwm_us[out.throttle_channel - 1]
-                thr = (pwm - out.throttle_min_us) / (out.throttle_max_us - out.throttle_min_us)
+                thr = min(1.0, max(0.0, (pwm - out.throttle_min_us)
+                                   / (out.throttle_max_us - out.throttle_min_us)))
         if thr != thr and hud is not None:
             thr = hud.throttle
         nav = frame.nav
@@ -349,6 +353,11 @@ class AircraftTier:
 
     def judge(self, frame: Frame, s: Signals | None) -> Verdict:
         t = frame.t_us
+        if frame.mav_type not in FIXED_WING_TYPES:  # a copter's outputs drive motors
+            return Verdict(FamilyStatus(
+                self.name, t, False, sample=False, inputs=False,
+                reason=f"not an aeroplane (MAV_TYPE {frame.mav_type}): the aircraft tier models "
+                       "control surfaces and a propulsion engine"))
         if s is None:
             return Verdict(FamilyStatus(self.name, t, False, sample=False,
                                         reason="no IMU sample", inputs=self._seen_inputs))
@@ -383,11 +392,11 @@ class AircraftTier:
         """Advance one axis by a new control sample; (axis, y, phi, scale) when it stepped."""
         ax.judged = False
         mode = self._mode(ax, s)
-        if mode != ax.mode:
-            ax.reset(mode, s.t_us)
-        if not mode:
+        if not mode:  # a command stream gone quiet (or stale) keeps the models it had
             reasons.append(f"{ax.channel.axis}: no command (servo output or setpoint)")
             return None
+        if mode != ax.mode:  # another kind of command: other regressors, a new model
+            ax.reset(mode, s.t_us)
         cmd_t = self._command_t(ax, s)
         response = s.omega + s.f
         if cmd_t <= ax.cmd_t_us or response == ax.response:
@@ -595,6 +604,9 @@ class AircraftTier:
                         "position unobservable without servo outputs)")
             # the surface position that explains the response, averaged over the history
             pos = float(np.mean((x + e / b) / sq))
+            if not abs(pos) <= 2.0 * self._max_defl[ax.index]:  # no stuck surface sits there
+                return (FaultType.STUCK, math.nan,
+                        f"{name}: stuck or without effect ({kappa:.2f} of the command acts)")
             zero = abs(pos) < c.zero_position_ratio * self._max_defl[ax.index]
             where = "zero" if zero else f"{pos * RAD2DEG:.1f} deg"
             return FaultType.STUCK, pos, f"{name}: stuck at {where} ({kappa:.2f} of the " \

@@ -15,6 +15,13 @@ from dataclasses import dataclass
 from gcs_monitor.core.params import param, section
 
 SURFACES = ("aileron", "elevator", "rudder")
+# Default J_th: 1.25 x the worst J after the warm-up over 22 fault-free simulated flights of both
+# airframes (6 transport presets and 6 `fault_free` transport flights, 10 `actuators_fault_free`
+# UAV flights, calibration seed 101; every manoeuvre, calm to 3.5 m/s turbulence): worst J 2.64
+# (surfaces), 2.26 (engine), 4.72 (effectiveness), rounded up. docs/results.md, "Actuator family".
+SURFACE_J_TH = 3.5
+ENGINE_J_TH = 3.0
+EFFECTIVENESS_J_TH = 6.0
 ACTUATORS = (*SURFACES, "engine")
 COMMAND_SOURCES = ("auto", "servo", "setpoint")
 
@@ -89,8 +96,9 @@ class ResidualCheckConfig:
     """Residual RMS window (Wan2018 eq. 18 on the normalised residual), threshold and
     n_D-of-N confirmation, windows in seconds."""
 
-    threshold: float = param(4.0, "J_th on the RMS of the normalised residual (dimensionless: "
-                             "multiples of the axis's healthy residual RMS)", positive=True)
+    threshold: float = param(SURFACE_J_TH, "J_th on the RMS of the normalised residual "
+                             "(dimensionless: multiples of the axis's healthy residual RMS)",
+                             positive=True)
     window_s: float = param(1.0, "RMS and confirmation window", positive=True)
     detect_ratio: float = param(0.6, "share of the window's samples above J_th that confirms",
                                 positive=True)
@@ -129,10 +137,10 @@ class AircraftFdiConfig:
     surface: ResidualCheckConfig = section(ResidualCheckConfig,
                                            "aileron, elevator and rudder axes")
     engine: ResidualCheckConfig = section(
-        lambda: ResidualCheckConfig(threshold=4.0, window_s=2.0),
+        lambda: ResidualCheckConfig(threshold=ENGINE_J_TH, window_s=2.0),
         "the engine (thrust deficit: only a specific force below the model counts)")
     effectiveness: ResidualCheckConfig = section(
-        lambda: ResidualCheckConfig(threshold=4.0, window_s=1.0),
+        lambda: ResidualCheckConfig(threshold=EFFECTIVENESS_J_TH, window_s=1.0),
         "every actuator's effectiveness: the tracking model's loss against the reference "
         "model's, in standard errors (one-sided: only a loss counts)")
     isolation_ratio: float = param(0.5, "a confirmed axis raises only if its J/J_th is at least "
