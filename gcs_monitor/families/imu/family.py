@@ -151,15 +151,19 @@ class ImuFamily:
         seen = self._last_sample
         periods = self._instance_period
         for i, smp in enumerate(frame.imu):
-            if smp is not None:
+            if smp is not None and seen.get(i) != smp.t_us:
                 seen[i] = smp.t_us
-                periods.setdefault(i, SamplePeriod()).add(smp.t_us)
+                per = periods.get(i)
+                if per is None:
+                    per = periods[i] = SamplePeriod()
+                per.add(smp.t_us)
         if len(seen) < 2:
             return []
         # silent for the window, and for several of its own periods (one lost packet of a slow
         # stream is not a silent sensor)
+        window = self._no_data_us
         silent = {i for i, ts in seen.items()
-                  if t - ts > max(self._no_data_us, NO_DATA_PERIODS * periods[i].seconds() * 1e6)}
+                  if t - ts > window and t - ts > NO_DATA_PERIODS * periods[i].seconds() * 1e6}
         events: list[AlarmEvent] = []
         for i in sorted(seen):
             sm = self._silent.get(i)
