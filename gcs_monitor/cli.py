@@ -62,6 +62,13 @@ def _sinks_factory(args: argparse.Namespace, cfg: MonitorConfig) -> Callable[[in
             state["zenoh_listening"] = True
             sinks.append(ZenohSink(sysid, listen=listen, connect=connect,
                                    estimate_rate_hz=cfg.sinks.estimate_rate_hz))
+        if getattr(args, "mavlink_alarms", None):
+            from gcs_monitor.sinks.mavlink_sink import COMPID_DEFAULT, MavlinkAlarmSink
+
+            sinks.append(MavlinkAlarmSink(
+                args.mavlink_alarms, vehicle=sysid, sysid=args.mavlink_alarms_sysid,
+                compid=args.mavlink_alarms_compid or COMPID_DEFAULT,
+                named_values=args.mavlink_named_values, queue_size=cfg.sinks.queue_size))
         if journal is not None:
             sinks.append(journal)
         return sinks
@@ -78,6 +85,17 @@ def _add_sink_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--zenoh-connect", action="append", help="router/peer endpoint to connect")
     p.add_argument("--journal", type=Path, help="append alarms as JSON lines to this file")
     p.add_argument("--record-tlog", type=Path, help="record the raw input to a .tlog")
+    p.add_argument("--mavlink-alarms", metavar="URL",
+                   help="send every alarm raise and clear as STATUSTEXT to a ground station "
+                        "(udpout:HOST:PORT or tcp:HOST:PORT)")
+    p.add_argument("--mavlink-alarms-sysid", type=int, default=None,
+                   help="source system id of the alarms (default: the vehicle's, so ground "
+                        "stations show them with its messages; 255 = a GCS)")
+    p.add_argument("--mavlink-alarms-compid", type=int, default=None,
+                   help="source component id of the alarms (default 191, "
+                        "MAV_COMP_ID_ONBOARD_COMPUTER)")
+    p.add_argument("--mavlink-named-values", action="store_true",
+                   help="also send each set's fused value as NAMED_VALUE_FLOAT")
     p.add_argument("--quiet", action="store_true", help="print only the summary")
 
 
@@ -194,7 +212,20 @@ def cmd_live(args: argparse.Namespace) -> int:
 
     src = open_source(args.url, idle_timeout_s=args.idle_timeout)
     print(f"listening on {args.url} (Ctrl-C to stop)", flush=True)
-    _run_source(src, args, duration_s=args.duration)
+    if not args.request_rates:
+        _run_source(src, args, duration_s=args.duration)
+        return 0
+    from gcs_monitor.link.rates import RateRequester, rates_table
+
+    req = RateRequester(src.write, measure_s=args.rates_report_after)
+
+    def poll(monitor: Any, now: float) -> None:
+        res = req.poll(now)
+        if res is not None:
+            print("\nmessage rates (requested with MAV_CMD_SET_MESSAGE_INTERVAL, "
+                  "REQUEST_DATA_STREAM where not accepted):\n" + rates_table(res), flush=True)
+
+    _run_source(src, args, duration_s=args.duration, raw=req.on_message, on_wall=poll)
     return 0
 
 
@@ -435,6 +466,12 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--duration", type=float, help="stop after this many seconds")
     s.add_argument("--idle-timeout", type=float,
                    help="stop after this long without data, counted from the first data (s)")
+    s.add_argument("--request-rates", action="store_true",
+                   help="ask the autopilot for the message rates the families need "
+                        "(MAV_CMD_SET_MESSAGE_INTERVAL, else REQUEST_DATA_STREAM) and report "
+                        "the rates measured")
+    s.add_argument("--rates-report-after", type=float, default=5.0,
+                   help="seconds after the requests to measure and report the rates")
     _add_sink_args(s)
     s.set_defaults(func=cmd_live)
     s = sub.add_parser("replay", help="replay flight logs (.tlog, ArduPilot .bin/.log, PX4 .ulg, "
