@@ -411,6 +411,25 @@ def _tlog_records(src: Any, fh: Any, header: Any) -> None:
             fh.write(header.pack(int(round(wall * 1e6))) + bytes(m.get_msgbuf()))
 
 
+def cmd_report(args: argparse.Namespace) -> int:
+    from gcs_monitor.convert.logs import LogError
+    from gcs_monitor.report import write_report
+
+    failures: list[tuple[Path, str]] = []
+    partial: list[Path] = []
+    cfg = load_config(args.config)
+    for path in args.inputs:
+        try:
+            page = write_report(path, args.out, cfg=cfg, fmt=args.format, column_map=args.map,
+                                imu_rate_hz=args.imu_rate_hz)
+        except LogError as exc:
+            print(f"gcs-monitor: {exc}", file=sys.stderr)
+            failures.append((path, str(exc).removeprefix(f"{path}: ")))
+            continue
+        print(f"{path.name}: report -> {page}")
+    return _batch_end(failures, partial, len(args.inputs))
+
+
 def cmd_config(args: argparse.Namespace) -> int:
     from gcs_monitor.config import config_markdown, config_toml
 
@@ -481,6 +500,13 @@ def build_parser() -> argparse.ArgumentParser:
     _add_log_args(s)
     _add_sink_args(s)
     s.set_defaults(func=cmd_replay)
+    s = sub.add_parser("report", help="post-flight fault report: one self-contained HTML page "
+                                      "per log")
+    s.add_argument("inputs", nargs="+", type=Path, metavar="LOG")
+    s.add_argument("--out", type=Path, default=Path("report"), help="folder for the pages")
+    s.add_argument("--config", type=Path, help="monitor TOML (defaults suit the simulator)")
+    _add_log_args(s)
+    s.set_defaults(func=cmd_report)
     s = sub.add_parser("alarms", help="subscribe to the Zenoh alarm stream and print alarms")
     s.add_argument("keyexpr", nargs="?", default="gcs/*/alarm")
     s.add_argument("--connect", action="append", help=f"endpoint (default {DEFAULT_ZENOH})")

@@ -237,13 +237,19 @@ def _firmware(r: Any) -> str:
 
 
 def _tail_bytes(r: Any) -> int:
-    """Bytes after the last complete record (a cut file leaves part of one)."""
+    """Bytes after the last complete record (a cut file leaves part of one; the reader's index
+    may list that partial record)."""
     try:
-        end = 0
+        last, length = -1, 0
         for i in range(256):
             if i in r.formats and r.counts[i] > 0:
-                end = max(end, int(r.offsets[i][r.counts[i] - 1]) + int(r.formats[i].len))
-        return max(0, int(r.data_len) - end)
+                ofs = int(r.offsets[i][r.counts[i] - 1])
+                if ofs > last:
+                    last, length = ofs, int(r.formats[i].len)
+        if last < 0:
+            return 0
+        end = last + length
+        return int(r.data_len) - (end if end <= int(r.data_len) else last)
     except (AttributeError, IndexError, KeyError, TypeError):
         return 0
 

@@ -47,6 +47,9 @@ FORMATS = {
     "csvmap": "any CSV described by a TOML column map (--map)",
 }
 
+EXTENSIONS = {"tlog": (".tlog",), "dataflash": (".bin",), "dataflash-text": (".log",),
+              "ulog": (".ulg",), "zipline": (".csv",), "onspeed": (".csv",), "alfa": (".csv",),
+              "csvmap": (".csv", ".txt", ".dat")}
 ULOG_MAGIC = b"ULog\x01\x12\x35"
 DATAFLASH_HEAD = b"\xa3\x95"
 SNIFF_BYTES = 4096
@@ -104,6 +107,16 @@ class LogInfo:
 
 # A reader yields (vehicle time µs, MAVLink message object) in time order and fills its info.
 Messages = Iterator[tuple[int, Any]]
+
+
+def extension_note(path: Path, fmt: str) -> str | None:
+    """A warning when the file's extension names another format than its content."""
+    suffix = Path(path).suffix.lower()
+    expected = EXTENSIONS.get(fmt, ())
+    if not suffix or suffix in expected:
+        return None
+    return (f"named {suffix} but the content is a {FORMATS.get(fmt, fmt)}: read as that "
+            "(--format forces a format)")
 
 
 # -- format detection ----------------------------------------------------------------------------

@@ -114,6 +114,10 @@ def ulog_messages(path: Path, *, imu_rate_hz: float = DEFAULT_IMU_RATE_HZ,
     except Exception as exc:
         raise log_error(path, f"not a readable ULog ({type(exc).__name__}: {exc})") from None
     info = LogInfo(path=path, fmt="ulog")
+    tail = ulog_tail_bytes(path)
+    if tail:
+        info.warnings.append(f"the file ends {tail} bytes into an incomplete record "
+                             "(cut file?); read up to it")
     if u.file_corruption or "corrupt" in sink.getvalue().lower():
         info.warnings.append("pyulog found corrupt or cut data; read what it could")
     topics: dict[tuple[str, int], dict[str, np.ndarray]] = {}
@@ -213,6 +217,23 @@ def ulog_messages(path: Path, *, imu_rate_hz: float = DEFAULT_IMU_RATE_HZ,
     t1 = max(int(s[0][-1]) for s in streams if len(s[0]))
     info.t0_us, info.t1_us = t0, t1
     return _merge(streams, mav_type), info
+
+
+ULOG_HEADER_BYTES = 16
+
+
+def ulog_tail_bytes(path: Path) -> int:
+    """Bytes of a last, incomplete message (a cut file): ULog messages are ``uint16 size,
+    uint8 type, size bytes``, one after the other from the 16-byte header on."""
+    data = Path(path).read_bytes()
+    n = len(data)
+    p = ULOG_HEADER_BYTES
+    while p + 3 <= n:
+        size = data[p] | (data[p + 1] << 8)
+        if p + 3 + size > n:
+            return n - p
+        p += 3 + size
+    return n - p if p < n else 0
 
 
 def _merge(streams: list[tuple[np.ndarray, Emit]], mav_type: int) -> Messages:

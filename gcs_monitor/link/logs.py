@@ -19,6 +19,7 @@ from gcs_monitor.convert.logs import (
     LogInfo,
     Messages,
     detect_log_format,
+    extension_note,
     log_error,
     read_messages,
 )
@@ -127,13 +128,17 @@ def open_log(path: Path | str, fmt: str | None = None, *, speed: float | None = 
     path = Path(path)
     if column_map is not None:
         fmt = "csvmap"
+    detected = fmt is None
     fmt = fmt or detect_log_format(path)
+    note = extension_note(path, fmt) if detected else None
     if fmt == "tlog":
         if path.stat().st_size == 0:
             raise log_error(path, "empty file (0 bytes)")
         src = TlogSource(path, speed=speed, on_progress=on_progress)
-        return OpenedLog(src, LogInfo(path=path, fmt="tlog"))
+        return OpenedLog(src, LogInfo(path=path, fmt="tlog", warnings=[note] if note else []))
     messages, info = read_messages(path, fmt, column_map=column_map, imu_rate_hz=imu_rate_hz)
+    if note:
+        info.warnings.insert(0, note)
     total = (info.t1_us - info.t0_us) if info.t0_us is not None and info.t1_us is not None \
         else None
     src = MessageSource(messages, info, speed=speed, on_progress=on_progress, total_us=total)
