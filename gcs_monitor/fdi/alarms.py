@@ -24,7 +24,7 @@ from enum import StrEnum
 
 from gcs_monitor.core.params import param
 from gcs_monitor.core.types import ChannelId
-from gcs_monitor.fdi.events import AlarmEvent, AlarmKind, AlarmState, FaultType
+from gcs_monitor.fdi.events import OBSERVED_TYPES, AlarmEvent, AlarmKind, AlarmState, FaultType
 
 
 class ChannelAlarm(StrEnum):
@@ -50,7 +50,7 @@ class AlarmStateMachine:
     """Raise / update / clear one channel's alarm from per-sample decisions."""
 
     __slots__ = ("channel", "kind", "estimator", "vehicle", "p", "state", "_type", "_mag",
-                 "_last_event_us")
+                 "_conf", "_last_event_us")
 
     def __init__(
         self,
@@ -69,6 +69,7 @@ class AlarmStateMachine:
         self.state = ChannelAlarm.NORMAL
         self._type = FaultType.UNKNOWN
         self._mag = math.nan
+        self._conf = 0.0
         self._last_event_us = -(1 << 62)
 
     @property
@@ -81,7 +82,7 @@ class AlarmStateMachine:
         return AlarmEvent(t_us=t_us, channel=self.channel, state=state, kind=self.kind,
                           fault_type=fault_type, magnitude=magnitude, residual_rms=rms,
                           threshold=threshold, estimator=self.estimator, message=message,
-                          vehicle=self.vehicle)
+                          vehicle=self.vehicle, confidence=self._conf)
 
     def step(
         self,
@@ -93,8 +94,18 @@ class AlarmStateMachine:
         rms: float = math.nan,
         threshold: float = math.nan,
         message: str = "",
+        confidence: float | None = None,
     ) -> list[AlarmEvent]:
-        """Advance one sample; return the transitions (0 or 1 event)."""
+        """Advance one sample; return the transitions (0 or 1 event).
+
+        ``confidence`` in ``fault_type`` (see :class:`AlarmEvent`); None: 1 for an observed
+        type (link, no_data), else 0. A change of confidence alone is no UPDATED event; the
+        next event carries it.
+        """
+        if faulty:
+            if confidence is None:
+                confidence = 1.0 if fault_type in OBSERVED_TYPES else 0.0
+            self._conf = min(max(confidence, 0.0), 1.0)
         if self.state is ChannelAlarm.NORMAL:
             if not faulty:
                 return []

@@ -130,3 +130,19 @@ def test_duplicate_sysid_alarm_follows_the_flag() -> None:
     mon = LinkAlarmMonitor()
     assert mon.step(0, {"duplicate_sysid": 1.0})[0].state is AlarmState.RAISED
     assert mon.step(1_000_000, {"duplicate_sysid": 0.0})[0].state is AlarmState.CLEARED
+
+
+def test_alarm_events_carry_the_confidence_in_their_type() -> None:
+    ch = ChannelId("aoa", 1)
+    sm = AlarmStateMachine(ch, AlarmKind.SENSOR_FAULT, "voting")
+    ev = sm.step(0, True, fault_type=FaultType.BIAS, magnitude=1.0, confidence=0.8)
+    assert ev[0].confidence == 0.8
+    assert sm.step(1_000_000, True, fault_type=FaultType.BIAS, magnitude=1.0,
+                   confidence=0.3) == []  # a confidence change alone is no event ...
+    ev = sm.step(2_000_000, False)
+    assert ev[0].state is AlarmState.CLEARED and ev[0].confidence == 0.3  # ... the next has it
+    # without a stated confidence: observed types are certain, unknown is not a decision
+    link = AlarmStateMachine(ChannelId("link", 1, "loss"), AlarmKind.LINK, "link")
+    assert link.step(0, True, fault_type=FaultType.LINK)[0].confidence == 1.0
+    lost = AlarmStateMachine(ChannelId("aoa", -1), AlarmKind.SET_LOST, "voting")
+    assert lost.step(0, True)[0].confidence == 0.0
