@@ -50,17 +50,18 @@ than ``REBOOT_JUMP_US`` are two senders with one sysid (``clock_conflicts``,
   since boot or UNIX time, so no real clock is later; 2^63 and above, which no int64 holds, are
   far beyond it) or negative;
 * an IMU sample more than :meth:`FrameAssembler.jump_bound_us` ahead of the IMU time line (the
-  newest accepted IMU sample) is held, not used: if ``REBOOT_CONFIRM`` IMU samples in a row
-  continue that later time line, it is the vehicle's (a link outage, a clock step) and the held
-  samples are replayed (``stats.time_jumps``); a sample back on the old line first means they
-  were outliers, and they are dropped and counted. The bound is ``REBOOT_CONFIRM`` measured IMU
+  newest accepted IMU sample) and of the other streams is held, not used: if the samples that
+  follow continue that later time line (``REBOOT_CONFIRM`` of them, IMU samples or those of the
+  other streams), it is the vehicle's (a link outage, a clock step) and the held samples are
+  replayed (``stats.time_jumps``); a sample back on the old line first means they were
+  outliers, and they are dropped and counted. The bound is ``REBOOT_CONFIRM`` measured IMU
   periods: an outlier less far ahead leaves fewer than ``REBOOT_CONFIRM`` samples behind it,
-  which the reboot check takes for reordered packets, so no single time stamp can fake a reboot;
+  which the reboot check takes for reordered packets, so no single time stamp can fake a reboot.
+  An IMU that resumes on the time line the other streams have kept (it was silent) is taken at
+  once;
 * a sample of another timed stream (attitude, GPS, AoA, static pressure, surfaces) more than
-  that bound ahead of the IMU time line and of a held later line: these streams share the
-  autopilot clock and lead the newest IMU sample by at most one IMU period of send schedule.
-  While no IMU sample arrives they are judged against the last one, so an IMU outage longer
-  than the bound also drops them until the IMU resumes (no Frame is built meanwhile anyway).
+  that bound ahead of every stream's newest time stamp and of a held later line: the streams
+  share the autopilot clock and lead each other by at most their send schedule.
 """
 
 from __future__ import annotations
@@ -201,6 +202,8 @@ class FrameAssembler:
         self._jump_buf: list[tuple[str, int, int, float, float, float, float, float,
                                    float]] = []
         self._line_period = SamplePeriod()  # of the IMU time line (distinct accepted instants)
+        self._other_t = NEVER_US  # newest accepted time stamp of the other timed streams
+        self._jump_support = 0  # other-stream samples on the held later line
         self._last_frame_t = NEVER_US
         self._now_us = NEVER_US
         self._att: np.ndarray | None = None
@@ -328,19 +331,21 @@ class FrameAssembler:
         self.stats.time_rejected += n
 
     def _bad_time(self, key: str, t_us: int) -> bool:
-        """Reject (True, counted) a time stamp no clock can carry, or a timed sample of a
-        secondary stream too far ahead of the IMU time line (module docstring)."""
+        """Reject (True, counted) a time stamp no clock can carry, or a timed sample of another
+        stream too far ahead of the vehicle's time line (module docstring)."""
         if not 0 <= t_us <= MAX_VEHICLE_T_US:
             self._time_rejected(key)
             return True
-        line = max(self._imu_t)
-        if line == NEVER_US:
-            return False
+        line = max(max(self._imu_t), self._other_t)
         lim = self.jump_bound_us()
-        if t_us - line <= lim:
+        if line == NEVER_US or t_us - line <= lim:
+            if t_us > self._other_t:
+                self._other_t = t_us
             return False
         buf = self._jump_buf
-        if buf and abs(t_us - buf[-1][1]) <= lim:  # the held later line: it may be confirmed
+        if buf and abs(t_us - buf[-1][1]) <= lim:  # on the held later line: it confirms it
+            self._jump_support += 1
+            self._other_t = t_us
             return False
         self._time_rejected(key)
         return True
@@ -354,17 +359,24 @@ class FrameAssembler:
             return []
         line = max(self._imu_t)
         buf = self._jump_buf
-        if line != NEVER_US and t_us - line > self.jump_bound_us():
-            if buf and abs(t_us - buf[-1][1]) > self.jump_bound_us():
+        bound = self.jump_bound_us()
+        if line != NEVER_US and t_us - line > bound:
+            if not buf and self._other_t != NEVER_US and t_us - self._other_t <= bound:
+                # the other streams are on this time line already: the IMU was silent, not
+                # wrong (no interval is measured across its gap)
+                self._line_period.gap()
+                return self._accept_imu(t_us, inst, ax, ay, az, p, q, r)
+            if buf and abs(t_us - buf[-1][1]) > bound:
                 self._drop_held()  # not the held line either: those were outliers
             buf.append((key, t_us, inst, ax, ay, az, p, q, r))
-            if len(buf) < REBOOT_CONFIRM:
+            if len(buf) + self._jump_support < REBOOT_CONFIRM:
                 return []
             # confirmed: the vehicle's clock is on the later line (an outage, a clock step)
             self.stats.time_jumps += 1
             self._line_period.gap()
             held = list(buf)
             buf.clear()
+            self._jump_support = 0
             out: list[Frame] = []
             for _, *sample in held:
                 out += self._accept_imu(*sample)  # type: ignore[arg-type]
@@ -385,6 +397,7 @@ class FrameAssembler:
         for key, *_ in self._jump_buf:
             self._time_rejected(key)
         self._jump_buf.clear()
+        self._jump_support = 0
 
     def _imu_sample(self, t_us: int, inst: int, ax: float, ay: float, az: float, p: float,
                     q: float, r: float) -> list[Frame]:

@@ -108,3 +108,27 @@ def test_a_secondary_stream_far_ahead_of_the_imu_is_rejected(clean):
     assert st.time_rejected == 1 and st.bad_values == {"GLOBAL_POSITION_INT.time_boot_ms": 1}
     # the GPS history was not wiped by a sample "from the future": velocity on every frame
     assert all(f.gps_vel_ned_mps is not None for f in frames if f.t_us > T0_US + 300_000)
+
+
+def test_an_imu_silent_while_the_other_streams_go_on_is_no_clock_fault():
+    """No HIGHRES_IMU for 3 s while attitude, GPS and air data go on: nothing is rejected, and
+    the IMU is taken at once when it resumes (the other streams kept the time line)."""
+    g = MavGen()
+    pk = g.packets(6.0)
+    gap = (T0_US + 2_000_000, T0_US + 5_000_000)
+    kept = [(t, p) for t, p in pk if not (gap[0] <= t < gap[1] and msg_name(p) == "HIGHRES_IMU")]
+    a, frames = _run(kept)
+    st = a.stats
+    assert (st.time_rejected, st.time_jumps, st.reboots) == (0, 0, 0)
+    assert len(frames) == 300 and frames[200].t_us == gap[1]
+
+
+def test_a_forward_step_is_confirmed_by_the_other_streams():
+    """After the step the first IMU samples are held; attitude and GPS on the same later line
+    confirm it with the IMU samples that follow."""
+    g = MavGen(n_imu=1)
+    before = g.packets(1.0)
+    after = g.packets(1.0, start_us=T0_US + 61_000_000)
+    a, frames = _run(before + after)
+    assert a.stats.time_jumps == 1 and a.stats.time_rejected == 0
+    assert len(frames) == 200
