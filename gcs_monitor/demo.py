@@ -46,7 +46,7 @@ SUMMARY_HEADER = ["channel", "injected fault", "t_start [s]", "result", "delay [
 def _raise_cells(first: AlarmEvent, last: AlarmEvent) -> list[str]:
     kind = first.channel.kind
     return [f"{type_text(first)} {magnitude_text(kind, first.magnitude)}",
-            f"{final_state(last)} at {last.t_us / 1e6:.2f} s: {type_text(last)} "
+            f"{final_state(last)}, last event {last.t_us / 1e6:.2f} s: {type_text(last)} "
             f"{magnitude_text(kind, last.magnitude)}"]
 
 

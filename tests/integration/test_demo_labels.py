@@ -83,6 +83,6 @@ def test_summary_shows_first_raise_and_final_state(demo):
                                            ("cas2", "detected")]
     for r in rows:
         assert INJECTED[r[0]].value in r[5] and INJECTED[r[0]].value in r[6]
-        assert r[6].startswith("active at ")
+        assert r[6].startswith("active, last event ")
         assert not any("nan" in c.lower() for c in r)
         assert math.isfinite(float(r[4]))
