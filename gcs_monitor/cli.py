@@ -200,7 +200,7 @@ def _print_summary(monitor: Any, wall_s: float) -> None:
             print("  " + family_line(name, fam))
     rows = summarise_alarms(monitor.events)
     if rows:
-        print("\nalarms (first raise per channel):")
+        print("\nalarms (per channel: first raise | final state):")
         for r in rows:
             print("  " + r)
     else:

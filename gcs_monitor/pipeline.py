@@ -92,7 +92,7 @@ class VehiclePipeline:
             "frames": self.frames,
             "active_alarms": [
                 {"channel": str(ch), "kind": ev.kind.value, "fault_type": ev.fault_type.value,
-                 "magnitude": ev.magnitude, "since_t_us": ev.t_us}
+                 "confidence": ev.confidence, "magnitude": ev.magnitude, "since_t_us": ev.t_us}
                 for ch, ev in sorted(self.active.items())
             ],
         }
