@@ -172,10 +172,10 @@ def run_one(index: int, sc: Scenario, cfg: MonitorConfig, *, keep_series: bool =
 
 def replay_tlog(path: Path, cfg: MonitorConfig, make_airdata: AirDataVariant
                 ) -> tuple[list[AlarmEvent], dict[str, np.ndarray]]:
-    """Monitor a tlog with the air-data estimator ``make_airdata()`` in the air-data family of
-    ``cfg`` (as ``gcs-monitor replay``); the alarm events
-    and per air-data sample: ``t`` (s), ``aoa_j``/``cas_j`` (J per instance) and
-    ``aoa_est``/``cas_est`` (the estimator's virtual sensor), SI."""
+    """Monitor a tlog (as ``gcs-monitor replay``) with ``cfg``'s families, the air-data family
+    running the estimator ``make_airdata()``; the alarm events and per air-data sample: ``t``
+    (s), ``aoa_j``/``cas_j`` (J per instance) and ``aoa_est``/``cas_est`` (the estimator's
+    virtual sensor), SI."""
     rows: dict[str, list[Any]] = {k: [] for k in ("t", "aoa_j", "cas_j", "aoa_est", "cas_est")}
 
     def on_step(sysid: int, frame: Any, step: StepOutput) -> None:
