@@ -15,7 +15,7 @@ from pathlib import Path
 
 from gcs_monitor.config import MonitorConfig
 from gcs_monitor.evaluation import scenarios
-from gcs_monitor.evaluation.configs import consensus_config
+from gcs_monitor.evaluation.configs import consensus_config, without_actuators
 from gcs_monitor.evaluation.records import CampaignResult, RunRecord
 from gcs_monitor.evaluation.report import write_report
 from gcs_monitor.evaluation.runner import run_parallel
@@ -59,13 +59,14 @@ def run_campaign(preset_set: str, runs: int, jobs: int, out_dir: Path, *, seed: 
     out_dir : where report.md, metrics.csv, runs.csv, faults.csv and the PNG plots go
     seed : preset-set seed
     progress : tqdm progress bar
-    config : monitor configuration (default: :class:`MonitorConfig` defaults)
+    config : monitor configuration (default: the :class:`MonitorConfig` defaults without the
+        actuator family, which these air-data campaigns do not judge)
 
     Returns
     -------
     CampaignResult with ``.markdown`` (the report) and ``.tables`` (Table IV rows per method)
     """
-    cfg = config or MonitorConfig()
+    cfg = config or without_actuators(MonitorConfig())
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()

@@ -181,6 +181,12 @@ def _with_sets(cfg: MonitorConfig, **changes: Any) -> MonitorConfig:
         cas=dataclasses.replace(fdi.cas, **changes)))
 
 
+def without_actuators(cfg: MonitorConfig) -> MonitorConfig:
+    """``cfg`` with the actuator family off: the sensor experiments judge their own families
+    (its experiments are in :mod:`gcs_monitor.evaluation.papers.actuators`)."""
+    return cfg.with_family("actuators", enabled=False)
+
+
 def variant_config(variant: str, base: MonitorConfig | None = None, *,
                    lateral: bool = False, restart_peers: bool = False,
                    equal_pair: bool = False) -> MonitorConfig:
@@ -193,7 +199,8 @@ def variant_config(variant: str, base: MonitorConfig | None = None, *,
     cfg = _with_sets(base or MonitorConfig(), restart_peers=restart_peers,
                      equal_pair_weights=equal_pair)
     cfg = _with_filter(cfg, lateral_terms=lateral)
-    return cfg.with_family("airdata", estimator=variant).with_family("imu", enabled=False)
+    return cfg.with_family("airdata", estimator=variant).with_family("imu", enabled=False) \
+        .with_family("actuators", enabled=False)
 
 
 def without_wind_accel(cfg: MonitorConfig) -> MonitorConfig:
@@ -222,7 +229,7 @@ def open_loop(cfg: MonitorConfig) -> MonitorConfig:
 def consensus_config(base: MonitorConfig | None = None) -> MonitorConfig:
     """``base`` (default: the monitor's defaults) without an air-data estimator: the AoA/CAS
     residuals are taken against the set's own consensus."""
-    return (base or MonitorConfig()).with_family("airdata", estimator="none")
+    return (base or without_actuators(MonitorConfig())).with_family("airdata", estimator="none")
 
 
 def light_aircraft_config() -> AirDataEstimatorConfig:
@@ -306,7 +313,7 @@ def imu_config(imu: ImuFamilyConfig | None = None) -> MonitorConfig:
     """The IMU experiments' monitor: air-data estimation off (not under test here; the AoA/CAS
     sets still run on set consensus), the IMU family ``imu`` (default: the ``[imu]``
     defaults, the Lu2016 estimator alone)."""
-    base = MonitorConfig().with_family("airdata", estimator="none")
+    base = without_actuators(MonitorConfig()).with_family("airdata", estimator="none")
     return base if imu is None else base.with_family("imu", imu)
 
 

@@ -746,6 +746,8 @@ class FrameAssembler:
     # time; SERVO_OUTPUT_RAW's 32-bit time_usec wraps after 71 min); ATTITUDE_TARGET with its
     # time_boot_ms. Frames built from then on carry the latest sample and its age.
     def _servo_output(self, m: Any) -> list[Frame]:
+        if getattr(m, "port", 0):  # outputs 1-16 are port 0 (a PX4 log's other output groups:
+            return []  # their channel numbers mean other things)
         pwm: list[float] = []
         for k in range(1, 17):
             v = getattr(m, f"servo{k}_raw", 0)  # servo9..16: MAVLink 2 extensions
