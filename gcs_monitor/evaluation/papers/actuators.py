@@ -43,6 +43,9 @@ from gcs_monitor.fdi.metrics import evaluate_run, metrics_table
 from gcs_monitor.fdi.residuals import ResidualRms, RmsWindowParams
 from gcs_monitor.monitor import Monitor
 from gcs_monitor.telemetry.frame import Frame
+from sim_vehicle.actuators.faults import ACTUATORS as SIM_ACTUATORS
+from sim_vehicle.campaigns import generate_set
+from sim_vehicle.run import RunState, iter_run
 
 OPEN_THRESHOLD = 1.0e9  # no residual reaches it: calibration runs never alarm or freeze
 MARGIN = 1.25  # threshold = MARGIN x the worst fault-free RMS (Wan2018 sec. VI-B rule)
@@ -191,9 +194,6 @@ class _Capture:
 def simulate(sc: Any, cfg: MonitorConfig, baseline_th: Sequence[float], *,
              keep_series: bool = False) -> ActuatorRun:
     """One scenario through the simulator's MAVLink bytes, the Monitor and the baseline."""
-    from sim_vehicle.actuators.faults import ACTUATORS as SIM_ACTUATORS
-    from sim_vehicle.run import RunState, iter_run
-
     ac = cfg.family("actuators").aircraft
     cap = _Capture(TrackingErrorBaseline(baseline_th, ac.fdi.surface, 1.0 / sc.output.nav_hz),
                    ac.model.warmup_s, keep_series)
@@ -235,8 +235,6 @@ def _run_job(job: tuple[Any, MonitorConfig, list[float], bool]) -> ActuatorRun:
 def calibrate(n_runs: int, jobs: int, seed: int = CALIBRATION_SEED,
               echo: Callable[[str], None] = print) -> tuple[dict[str, float], list[float]]:
     """J_th of the monitor's checks and of the baseline's axes from fault-free flights."""
-    from sim_vehicle.campaigns import generate_set
-
     scs = generate_set("actuators_fault_free", n_runs, seed)
     runs = run_parallel(_run_job, [(sc, actuator_config(), [OPEN_THRESHOLD] * 4, False)
                                    for sc in scs], jobs, desc="calibrate")
@@ -411,8 +409,6 @@ def actuators_sim(out_dir: Path, jobs: int = 1, quick: bool = False, *,
     """Aircraft tier on a seeded campaign (all surfaces and the engine, manoeuvring flight in
     turbulence) against a plain tracking-error threshold; thresholds from fault-free flights
     of calibration seeds. ``quick``: 14 runs, 6 calibration flights."""
-    from sim_vehicle.campaigns import generate_set
-
     out_dir = Path(out_dir)
     lines: list[str] = []
     n_cal = n_calibration or (6 if quick else 20)
