@@ -341,6 +341,21 @@ def cmd_alarms(args: argparse.Namespace) -> int:
     return 0
 
 
+class _NoTruth:
+    """An empty stand-in for a truth file that is not there (``with`` and ``files``)."""
+
+    files: tuple[str, ...] = ()
+
+    def __enter__(self) -> _NoTruth:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        return None
+
+    def __getitem__(self, key: str) -> Any:
+        raise KeyError(key)
+
+
 def cmd_convert(args: argparse.Namespace) -> int:
     from gcs_monitor.convert.formats import ConvertError
     from gcs_monitor.convert.logs import LogError, detect_log_format
@@ -359,11 +374,16 @@ def cmd_convert(args: argparse.Namespace) -> int:
                                    inject_imu=inject)
                 n = sum(res.messages.values())
                 print(f"{path.name}: {res.fmt}, {res.duration_s:.1f} s, {n} messages -> {out}")
+                if res.truth_path is not None:
+                    print(f"  ground truth (failure status, never on the link) -> "
+                          f"{res.truth_path}")
                 if inject is not None and res.injected_imu is not None:
                     import numpy as np
 
-                    np.savez(out.with_suffix(".truth.npz"), t_s=res.t_s,
-                             imu_fault=res.injected_imu)
+                    truth = out.with_suffix(".truth.npz")
+                    with np.load(truth) if truth.exists() else _NoTruth() as old:
+                        kept = {k: old[k] for k in old.files}  # a real failure's truth stays
+                    np.savez(truth, t_s=res.t_s, imu_fault=res.injected_imu, **kept)
                 continue
             info = _write_log_tlog(path, out, args, fmt)
         except (LogError, ConvertError) as exc:

@@ -208,11 +208,14 @@ class TlogEncoder:
             ),
         )
 
-    def attitude(self, t_us: int, euler_rad: tuple[float, ...]) -> None:
+    def attitude(self, t_us: int, euler_rad: tuple[float, ...],
+                 omega_frd_radps: tuple[float, ...] = (0.0, 0.0, 0.0)) -> None:
+        """ATTITUDE: Euler angles and the body rates (rollspeed, pitchspeed, yawspeed)."""
         phi, theta, psi = euler_rad
+        p, q, r = omega_frd_radps
         self._emit(
             t_us,
-            mavlink.MAVLink_attitude_message(t_us // 1000, phi, theta, psi, 0.0, 0.0, 0.0),
+            mavlink.MAVLink_attitude_message(t_us // 1000, phi, theta, psi, p, q, r),
         )
 
     def gps(self, t_us: int, lat_rad: float, lon_rad: float, alt_msl_m: float,
@@ -261,6 +264,10 @@ class TlogEncoder:
                 int(round(throttle * 100)), baro_alt_m, climb_mps,
             ),
         )
+
+    def nav_controller(self, t_us: int, **setpoints: float) -> None:
+        """NAV_CONTROLLER_OUTPUT at ``t_us`` (keywords of :func:`nav_controller_msg`, SI)."""
+        self._emit(t_us, nav_controller_msg(**setpoints))
 
     def scaled_pressure(self, t_us: int, static_pressure_pa: float, oat_k: float) -> None:
         self._emit(

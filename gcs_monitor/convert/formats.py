@@ -18,7 +18,14 @@ FRD body frame, time in seconds. Frame and unit fixes follow shared/data/real/RE
   completed with w = +sqrt(1 - x^2 - y^2 - z^2) and converted from ENU-FLU to NED-FRD Euler
   angles; the sign of the missing w is chosen per row so that gravity agrees with the measured
   specific force. Rows whose IMU is empty are skipped. No lat/lon: a documented placeholder near
-  Pittsburgh (40.44, -79.94), altitude 300 m.
+  Pittsburgh (40.44, -79.94), altitude 300 m. The autopilot's commanded attitude is the measured
+  attitude plus ALFA's ``delta_roll`` / ``delta_pitch`` (commanded minus measured, deg: their
+  signs agree with the body rates, corr(delta_roll, p) ~ 0.8), written as NAV_CONTROLLER_OUTPUT
+  at every row where a delta changed (~12 Hz) with ``field.alt_error`` (m), ``field.aspd_error``
+  (cm/s in ArduPlane's NAV_CONTROLLER_OUTPUT, converted to m/s) and ``field.xtrack_error`` (m);
+  the IMU stays on the 20 Hz grid, forward-filled (its values change at ~2.5 Hz: the notes give
+  the measured rate of every stream). The failure status (``field.data``) and the kind (from the
+  file name) are ground truth, written beside the tlog, never on the link.
 """
 
 from __future__ import annotations
@@ -46,6 +53,35 @@ class ConvertError(ValueError):
     """An input file does not have the format its reader expects."""
 
 
+@dataclass(frozen=True)
+class FailureTruth:
+    """A real failure's ground truth (ALFA): the failed component, the kind as the file names
+    it, the first instant of the failure (s, the flight's time axis; NaN without a failure) and
+    the failure-status flag at each of its changes."""
+
+    component: str  # "engine", "aileron", "elevator", "rudder", or "" (no failure)
+    kind: str  # e.g. "engine_failure", "right_aileron_failure", "no_failure"
+    t_failure_s: float
+    status_t_s: Vec
+    status: Vec
+
+
+# ALFA file-name kinds -> the component the monitor should name (longest first)
+ALFA_KINDS = (("both_ailerons_failure", "aileron"), ("right_aileron_failure", "aileron"),
+              ("left_aileron_failure", "aileron"), ("rudder_left_failure", "rudder"),
+              ("rudder_right_failure", "rudder"), ("elevator_failure", "elevator"),
+              ("engine_failure", "engine"), ("no_failure", ""))
+
+
+def alfa_kind(stem: str) -> tuple[str, str]:
+    """(kind, component) of an ALFA flight from its file name (README: the flag's value
+    differs between kinds, the name does not)."""
+    for kind, component in ALFA_KINDS:
+        if kind in stem:
+            return kind, component
+    return "unknown", ""
+
+
 @dataclass
 class Flight:
     """A flight in SI arrays. ``n`` samples at the IMU rate; GPS arrays on their own times."""
@@ -68,6 +104,15 @@ class Flight:
     climb_mps: Vec = field(default_factory=lambda: np.zeros(0))
     static_pressure_pa: Vec = field(default_factory=lambda: np.zeros(0))
     oat_k: Vec = field(default_factory=lambda: np.zeros(0))
+    # the autopilot's setpoints and tracking errors (NAV_CONTROLLER_OUTPUT), on their own times
+    nav_t_s: Vec = field(default_factory=lambda: np.zeros(0))
+    nav_roll_rad: Vec = field(default_factory=lambda: np.zeros(0))
+    nav_pitch_rad: Vec = field(default_factory=lambda: np.zeros(0))
+    alt_error_m: Vec = field(default_factory=lambda: np.zeros(0))
+    aspd_error_mps: Vec = field(default_factory=lambda: np.zeros(0))
+    xtrack_error_m: Vec = field(default_factory=lambda: np.zeros(0))
+    # ground truth of a real failure (ALFA): never on the link, written beside the tlog
+    truth: FailureTruth | None = None
     notes: list[str] = field(default_factory=list)
 
     @property
@@ -214,13 +259,70 @@ def read_alfa(path: Path) -> Flight:
     vel = np.column_stack([a[:, 10], a[:, 9], -a[:, 11]])
     n = len(t)
     lat0, lon0 = (x * DEG2RAD for x in ALFA_ORIGIN_DEG)
-    return Flight(
+    flight = Flight(
         name=path.stem, fmt="alfa", t_s=t, acc_frd_mps2=[acc], omega_frd_radps=[omg],
         euler_rad=euler, gps_t_s=t, gps_vel_ned_mps=vel, lat_rad=np.full(n, lat0),
         lon_rad=np.full(n, lon0), alt_m=np.full(n, ALFA_ALT_M),
-        notes=["ALFA derived 20 Hz grid, forward-filled; IMU effectively ~2.5 Hz (see data "
-               "README)", "placeholder lat/lon/alt"],
+        notes=["ALFA derived 20 Hz grid, forward-filled", "placeholder lat/lon/alt"],
     )
+    _alfa_setpoints(path, header, rows, ok, t_abs[0], flight)
+    _alfa_truth(path, header, rows, t_abs[0], flight)
+    flight.notes.append("update rates (value changes per second): " + ", ".join(
+        f"{k} {v:.1f} Hz" for k, v in (
+            ("IMU", _change_rate(t, a[:, 3:9])), ("velocity", _change_rate(t, a[:, 9:12])),
+            ("setpoints", len(flight.nav_t_s) / max(flight.duration_s, 1e-9)))))
+    return flight
+
+
+def _change_rate(t: Vec, cols: Mat) -> float:
+    """Changes per second of a forward-filled stream (a row counts when any column changed)."""
+    if len(t) < 2:
+        return math.nan
+    changed = np.any(np.diff(cols, axis=0) != 0.0, axis=1)
+    return float(np.sum(changed)) / float(t[-1] - t[0])
+
+
+def _alfa_setpoints(path: Path, header: list[str], rows: list[list[str]], ok: Vec,
+                    t0_abs: float, flight: Flight) -> None:
+    """NAV_CONTROLLER_OUTPUT samples: at every row (with an IMU) where a delta changed, the
+    commanded bank and pitch = measured + delta, and the ArduPlane tracking errors."""
+    names = ["delta_roll", "delta_pitch", "field.alt_error", "field.aspd_error",
+             "field.xtrack_error"]
+    if any(n not in header for n in names):
+        flight.notes.append("no delta_roll/delta_pitch/nav errors: no setpoints")
+        return
+    d = _columns(path, header, rows, names)[ok]
+    deltas = d[:, 0:2]
+    good = np.all(np.isfinite(deltas), axis=1)
+    changed = np.ones(len(d), dtype=bool)
+    changed[1:] = np.any(np.diff(deltas, axis=0) != 0.0, axis=1)
+    keep = good & changed
+    e = flight.euler_rad[keep]
+    flight.nav_t_s = flight.t_s[keep]
+    flight.nav_roll_rad = e[:, 0] + d[keep, 0] * DEG2RAD
+    flight.nav_pitch_rad = e[:, 1] + d[keep, 1] * DEG2RAD
+    flight.alt_error_m = d[keep, 2]
+    flight.aspd_error_mps = d[keep, 3] * 0.01  # ArduPlane sends cm/s
+    flight.xtrack_error_m = d[keep, 4]
+
+
+def _alfa_truth(path: Path, header: list[str], rows: list[list[str]], t0_abs: float,
+                flight: Flight) -> None:
+    """The failure status flag's changes and the first failed instant, on the flight's time
+    axis (rows before the first complete IMU row included: the flag may change anywhere)."""
+    kind, component = alfa_kind(path.stem)
+    ti = header.index("%time")
+    t = np.array([_parse_ros_time(r[ti]) for r in rows]) - t0_abs
+    if "field.data" in header:
+        flag = _columns(path, header, rows, ["field.data"])[:, 0]
+        flag = np.where(np.isfinite(flag), flag, 0.0)
+    else:
+        flag = np.zeros(len(rows))
+    changed = np.ones(len(flag), dtype=bool)
+    changed[1:] = np.diff(flag) != 0.0
+    on = np.flatnonzero(flag != 0.0)
+    t_fail = float(t[on[0]]) if len(on) and component else math.nan
+    flight.truth = FailureTruth(component, kind, t_fail, t[changed], flag[changed])
 
 
 def detect_format(path: Path) -> str:

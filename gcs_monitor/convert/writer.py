@@ -6,6 +6,7 @@ the monitor sees them through the real MAVLink path; the injected values are ret
 
 from __future__ import annotations
 
+import json
 import math
 import shutil
 from collections.abc import Callable
@@ -32,6 +33,7 @@ class ConvertResult:
     injected_imu: Mat | None = None  # (n, 6) truth of the injected IMU faults
     t_s: Vec = field(default_factory=lambda: np.zeros(0))
     notes: list[str] = field(default_factory=list)
+    truth_path: Path | None = None  # a real failure's ground truth beside the tlog (ALFA)
 
 
 def write_flight(flight: Flight, out: Path, *, inject_imu: ImuInjector | None = None,
@@ -42,6 +44,7 @@ def write_flight(flight: Flight, out: Path, *, inject_imu: ImuInjector | None = 
     fault = inject_imu(t, flight) if inject_imu is not None else None
     gps_i = 0
     air_i = 0
+    nav_i = 0
     next_hb = 0.0
     with TlogEncoder(out, sysid=sysid) as enc:
         for k in range(n):
@@ -67,13 +70,62 @@ def write_flight(flight: Flight, out: Path, *, inject_imu: ImuInjector | None = 
                     enc.imu(t_us, inst, tuple(acc), tuple(omg))
             e = flight.euler_rad[k]
             if np.all(np.isfinite(e)):
-                enc.attitude(t_us, (float(e[0]), float(e[1]), float(e[2])))
+                w = flight.omega_frd_radps[0][k]
+                enc.attitude(t_us, (float(e[0]), float(e[1]), float(e[2])),
+                             (float(w[0]), float(w[1]), float(w[2])) if np.all(np.isfinite(w))
+                             else (0.0, 0.0, 0.0))
             while air_i < len(flight.air_t_s) and flight.air_t_s[air_i] <= tk + 1e-9:
                 _write_air(enc, flight, air_i, t_us)
                 air_i += 1
+            while nav_i < len(flight.nav_t_s) and flight.nav_t_s[nav_i] <= tk + 1e-9:
+                _write_nav(enc, flight, nav_i, t_us)
+                nav_i += 1
         messages = dict(enc.count)
+    truth = write_failure_truth(flight, out) if flight.truth is not None else None
     return ConvertResult(tlog=out, fmt=flight.fmt, duration_s=flight.duration_s,
-                         messages=messages, injected_imu=fault, t_s=t, notes=flight.notes)
+                         messages=messages, injected_imu=fault, t_s=t, notes=flight.notes,
+                         truth_path=truth)
+
+
+def _write_nav(enc: TlogEncoder, f: Flight, i: int, t_us: int) -> None:
+    enc.nav_controller(t_us, nav_roll_rad=float(f.nav_roll_rad[i]),
+                       nav_pitch_rad=float(f.nav_pitch_rad[i]),
+                       alt_error_m=float(f.alt_error_m[i]),
+                       aspd_error_mps=float(f.aspd_error_mps[i]),
+                       xtrack_error_m=float(f.xtrack_error_m[i]))
+
+
+def truth_path_of(tlog: Path) -> Path:
+    """Where a converted flight's ground truth sits: ``<name>.truth.npz`` beside the tlog."""
+    return Path(tlog).with_suffix(".truth.npz")
+
+
+def write_failure_truth(flight: Flight, tlog: Path) -> Path:
+    """A real failure's ground truth beside the tlog (never on the link), in the simulator's
+    truth layout: ``fault_events_json`` (JSON list: the failed component as an ``actuator.<name>``
+    channel, kind, start) and the status flag at its changes (``failure_status.t_s``,
+    ``failure_status.value``)."""
+    tr = flight.truth
+    assert tr is not None
+    events = [] if not tr.component or not math.isfinite(tr.t_failure_s) else [
+        {"type": "actuator", "channel": f"actuator.{tr.component}", "kind": tr.kind,
+         "t_start_s": tr.t_failure_s, "t_end_s": None, "params": {"source": flight.name}}]
+    path = truth_path_of(tlog)
+    tmp = path.with_name(path.name + ".part")
+    with open(tmp, "wb") as fh:
+        np.savez(fh, fault_events_json=np.array(json.dumps(events)),
+                 failure_kind=np.array(tr.kind), failure_component=np.array(tr.component),
+                 **{"failure_status.t_s": tr.status_t_s, "failure_status.value": tr.status})
+    tmp.replace(path)
+    return path
+
+
+def load_failure_truth(path: Path) -> dict[str, object]:
+    """A truth file of :func:`write_failure_truth`: events decoded, arrays as saved."""
+    with np.load(path, allow_pickle=False) as z:
+        out: dict[str, object] = {k: z[k] for k in z.files}
+    out["fault_events"] = json.loads(str(out.pop("fault_events_json")))
+    return out
 
 
 def _write_air(enc: TlogEncoder, f: Flight, i: int, t_us: int) -> None:

@@ -21,6 +21,7 @@ from gcs_monitor.evaluation import campaign, sim_checks
 from gcs_monitor.evaluation.data import real_data_dir
 from gcs_monitor.evaluation.papers import (
     actuators,
+    actuators_alfa,
     atmaca2025,
     imu_detection,
     lu2016,
@@ -37,7 +38,8 @@ SIMULATED: tuple[Callable[[], dict[str, Experiment]], ...] = (
     imu_detection.experiments, wan2018.experiments, campaign.experiments,
     actuators.experiments)
 REAL_DATA: tuple[Callable[[], dict[str, RealDataExperiment]], ...] = (
-    lu2016_real.real_data_experiments, wan2018_real.real_data_experiments)
+    lu2016_real.real_data_experiments, wan2018_real.real_data_experiments,
+    actuators_alfa.real_data_experiments)
 
 
 def _on_data(fn: RealDataExperiment, data_dir: Path | None) -> Experiment:

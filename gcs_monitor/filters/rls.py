@@ -60,7 +60,7 @@ def rls_predict(state: RlsState, phi: Vec) -> float:
 
 
 def rls_step(state: RlsState, phi: Vec, y: float, lam: float, *,
-             trace_max: float = math.inf) -> tuple[RlsState, RlsUpdate]:
+             trace_max: float = math.inf, weight: float = 1.0) -> tuple[RlsState, RlsUpdate]:
     """One RLS update with forgetting factor ``lam`` in (0, 1] (module docstring).
 
     Parameters
@@ -70,14 +70,19 @@ def rls_step(state: RlsState, phi: Vec, y: float, lam: float, *,
     y : measured output
     lam : forgetting factor (1 = ordinary recursive least squares)
     trace_max : upper bound on ``trace(P)`` after the update
+    weight : the sample's weight ``w`` in (0, 1] in the weighted cost ``sum lambda^(N-k) w_k
+        e_k^2`` (a robust M-estimator's weight, e.g. Huber's ``min(1, c / |e / sigma|)``):
+        ``s = lambda / w + phi^T P phi``
     """
     if not 0.0 < lam <= 1.0:
         raise ValueError(f"forgetting factor must be in (0, 1], got {lam}")
+    if not 0.0 < weight <= 1.0:
+        raise ValueError(f"weight must be in (0, 1], got {weight}")
     theta, P = state.theta, state.P
     pred = float(phi @ theta)
     e = y - pred
     Pphi = P @ phi
-    s = lam + float(phi @ Pphi)
+    s = lam / weight + float(phi @ Pphi)
     if not (math.isfinite(e) and math.isfinite(s)) or s <= 0.0:
         return state, RlsUpdate(pred, e, s)
     K = Pphi / s
@@ -87,6 +92,13 @@ def rls_step(state: RlsState, phi: Vec, y: float, lam: float, *,
     if tr > trace_max:
         P_new *= trace_max / tr
     return RlsState(theta + K * e, P_new), RlsUpdate(pred, e, s)
+
+
+def huber_weight(normalised_error: float, c: float) -> float:
+    """Huber's weight ``min(1, c / |r|)`` of a residual ``r`` in units of its scale (1 for a
+    non-finite one is never asked: callers skip those samples)."""
+    a = abs(normalised_error)
+    return 1.0 if a <= c else c / a
 
 
 def forgetting_factor(memory_s: float, period_s: float) -> float:

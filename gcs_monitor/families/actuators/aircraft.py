@@ -75,7 +75,7 @@ from gcs_monitor.fdi.confirmation import Confirmation, ConfirmationParams
 from gcs_monitor.fdi.events import AlarmEvent, AlarmKind, ChannelStatus, FaultType
 from gcs_monitor.fdi.records import Estimate, FamilyStatus
 from gcs_monitor.fdi.residuals import ResidualRms, RmsWindowParams
-from gcs_monitor.filters.rls import RlsState, rls_step
+from gcs_monitor.filters.rls import RlsState, huber_weight, rls_step
 from gcs_monitor.telemetry.frame import Frame
 from gcs_monitor.telemetry.period import SamplePeriod
 
@@ -117,33 +117,43 @@ def _wrap(a: float) -> float:
 
 
 class _Check:
-    """One residual check through the shared FDI layer: RMS window (Wan2018 eq. 18) and
-    n_D-of-N confirmation with hysteresis, sized with the axis's measured step period."""
+    """One residual check through the shared FDI layer: optional exponential smoothing of the
+    value (a persistent fault is a bias; smoothing over ``smoothing_s`` divides the noise by
+    about sqrt(2 smoothing_s / period)), then the RMS window (Wan2018 eq. 18) and n_D-of-N
+    confirmation with hysteresis, sized with the axis's measured step period. A one-sided check
+    keeps only negative values (a thrust deficit)."""
 
-    __slots__ = ("cfg", "rms", "conf", "J", "faulty", "value")
+    __slots__ = ("cfg", "rms", "conf", "J", "faulty", "value", "one_sided", "_a", "_smooth")
 
-    def __init__(self, cfg: ResidualCheckConfig, period_s: float) -> None:
+    def __init__(self, cfg: ResidualCheckConfig, period_s: float, *,
+                 one_sided: bool = False) -> None:
         n = samples_in(cfg.window_s, period_s)
         self.cfg = cfg
+        self.one_sided = one_sided
         self.rms = ResidualRms(RmsWindowParams(rms_window_n=n))
         self.conf = Confirmation(ConfirmationParams(
             detect_n=max(1, round(cfg.detect_ratio * n)), eval_n=n, clear_ratio=cfg.clear_ratio,
             clear_n=samples_in(cfg.clear_s, period_s), latch=cfg.latch))
+        self._a = math.exp(-period_s / cfg.smoothing_s) if cfg.smoothing_s > 0.0 else 0.0
+        self._smooth = 0.0
         self.J = self.value = 0.0
         self.faulty = False
 
     def update(self, value: float) -> None:
-        self.value = value
-        self.J = self.rms.update(value)
+        a = self._a
+        self._smooth = v = a * self._smooth + (1.0 - a) * value
+        if self.one_sided and v > 0.0:
+            v = 0.0
+        self.value = v
+        self.J = self.rms.update(v)
         self.faulty = self.conf.update(self.J, self.cfg.threshold)
 
     @property
     def ratio(self) -> float:
         return self.J / self.cfg.threshold
 
-    @property
-    def suspected(self) -> bool:
-        return self.faulty or self.J > self.cfg.clear_ratio * self.cfg.threshold
+    def suspected(self, ratio: float) -> bool:
+        return self.faulty or self.J > ratio * self.cfg.threshold
 
 
 @dataclass
@@ -183,9 +193,9 @@ class _Axis:
     def faulty(self) -> bool:
         return any(c is not None and c.faulty for c in (self.res, self.eff))
 
-    @property
-    def suspected(self) -> bool:
-        return any(c is not None and c.suspected for c in (self.res, self.eff))
+    def suspected(self, ratio: float) -> bool:
+        """A check is confirmed, or its J is above ``ratio`` x J_th."""
+        return any(c is not None and c.suspected(ratio) for c in (self.res, self.eff))
 
     @property
     def ratio(self) -> float:
@@ -239,8 +249,12 @@ class AircraftTier:
         imu = frame.primary_imu
         if imu is None:
             return None
+        # the autopilot's body rates (ATTITUDE), else the gyro; rates that are exactly zero
+        # on every axis are a producer's placeholder, not a measurement
         w = frame.att_rate_frd_radps
-        omega = tuple(w.tolist()) if w is not None else tuple(imu.omega_frd_radps.tolist())
+        omega = tuple(w.tolist()) if w is not None else (0.0, 0.0, 0.0)
+        if omega == (0.0, 0.0, 0.0):
+            omega = tuple(imu.omega_frd_radps.tolist())
         f = tuple(imu.acc_frd_mps2.tolist())
         e = tuple(frame.euler_rad.tolist()) if frame.euler_rad is not None else None
         nan = math.nan
@@ -328,14 +342,19 @@ class AircraftTier:
         i = ax.index
         w, wp, fp = s.omega, prev.omega, prev.f
         if i == ENGINE:
-            cmd = prev.throttle if ax.mode == SERVO else prev.energy_err_mps
+            if ax.mode == SERVO:
+                cmd = prev.throttle
+            else:  # the throttle saturates as the energy error grows
+                e_max = self.cfg.model.max_energy_error_mps
+                cmd = max(-e_max, min(e_max, prev.energy_err_mps))
             return s.f[0], [cmd, sq, fp[2], 1.0]
+        lim = self.cfg.model.max_setpoint_error_rad
         if ax.mode == SERVO:
             cmd = prev.u_rad[i] * sq
-        elif i == 0:
-            cmd = prev.err_roll_rad
+        elif i == 0:  # the autopilot's rate demand saturates: so does the error's effect
+            cmd = max(-lim, min(lim, prev.err_roll_rad))
         elif i == 1:
-            cmd = prev.err_pitch_rad
+            cmd = max(-lim, min(lim, prev.err_pitch_rad))
         else:
             e = prev.euler
             assert e is not None
@@ -371,7 +390,7 @@ class AircraftTier:
             self._seen_inputs = True
         statuses = [] if self.ctx.statuses else None
         events = self._decide(t, stepped, statuses)
-        freeze = any(ax.suspected for ax in self.axes)
+        freeze = any(ax.suspected(self.cfg.model.freeze_ratio) for ax in self.axes)
         for ax, y, phi, sq in stepped:
             self._learn(ax, y, phi, sq, freeze)
         judged = any(ax.judged for ax, *_ in stepped)
@@ -423,8 +442,6 @@ class AircraftTier:
         floor = m.min_accel_sigma_mps2 if ax.index == ENGINE else m.min_rate_sigma_radps
         sigma = math.sqrt(max(ax.sigma2, floor * floor)) if ax.sigma2 == ax.sigma2 else math.inf
         nu = e / sigma
-        if ax.one_sided:
-            nu = min(nu, 0.0)
         ax.nu = nu
         sq = self._scale(prev)
         ax.hist.append((s.t_us, phi[0], e, sq))
@@ -478,7 +495,7 @@ class AircraftTier:
         period = ax.period.seconds()
         if not math.isfinite(period):
             period = 0.1
-        ax.res = _Check(ax.res_cfg, period)
+        ax.res = _Check(ax.res_cfg, period, one_sided=ax.one_sided)
         ax.eff = _Check(ax.eff_cfg, period)
         if ax.alarm is None:
             ax.alarm = AlarmStateMachine(ax.channel, AlarmKind.ACTUATOR_FAULT, ESTIMATOR,
@@ -507,20 +524,27 @@ class AircraftTier:
         phi_v = np.array(phi)
         tr = m.covariance_trace_max
         # tracking regression of the reference residual on the command: e = b (kappa - 1) x + c
+        # (unweighted: it is there to follow a change, large residuals included)
         ax.trk, _ = rls_step(ax.trk, np.array((phi[0], 1.0)), ax.e_ref,
                              math.exp(-dt / m.tracking_memory_s), trace_max=tr)
+        # Huber weights in the reference model: one glitch (a setpoint that jumps for a
+        # sample) must not move what healthy flight looks like
+        nu = abs(ax.e_ref) / math.sqrt(ax.sigma2) if ax.sigma2 > 0.0 else 0.0
+        w = huber_weight(nu, m.huber_c)
         if not freeze:
             ax.ref, up = rls_step(ax.ref, phi_v, y, math.exp(-dt / m.reference_memory_s),
-                                  trace_max=tr)
+                                  trace_max=tr, weight=w)
             # the residual RMS over healthy flight, from half-way through the warm-up (the
             # reference model's start-up errors are not its healthy level): an exact mean of
             # the squared a priori errors until the memory is reached, exponential after
             assert ax.prev is not None
             if ax.prev.t_us - ax.t_start_us >= 0.5 * m.warmup_s * US_PER_S:
                 ax.sigma_n += 1
-                w = max(1.0 / ax.sigma_n, 1.0 - math.exp(-dt / m.sigma_memory_s))
+                a = max(1.0 / ax.sigma_n, 1.0 - math.exp(-dt / m.sigma_memory_s))
                 e2 = up.error * up.error
-                ax.sigma2 = e2 if ax.sigma_n == 1 else (1.0 - w) * ax.sigma2 + w * e2
+                if ax.sigma_n > 1:  # Huber: an outlier counts at c sigma
+                    e2 = min(e2, m.huber_c * m.huber_c * ax.sigma2)
+                ax.sigma2 = e2 if ax.sigma_n == 1 else (1.0 - a) * ax.sigma2 + a * e2
         b_ref = float(ax.ref.theta[0])
         ax.effectiveness = 1.0 + float(ax.trk.theta[0]) / b_ref if abs(b_ref) > 1e-9 \
             else math.nan

@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from gcs_monitor.core.params import param, section
+from gcs_monitor.core.units import DEG2RAD
 
 SURFACES = ("aileron", "elevator", "rudder")
 # Default J_th: 1.25 x the worst J after the warm-up over 22 fault-free simulated flights of both
@@ -87,6 +88,16 @@ class ModelConfig:
                                         positive=True)
     min_accel_sigma_mps2: float = param(0.02, "floor of the specific-force residual RMS",
                                         positive=True)
+    freeze_ratio: float = param(0.75, "the reference models and residual RMS stop learning "
+                                "while any check's J is above this share of its J_th",
+                                positive=True)
+    huber_c: float = param(3.0, "Huber weight of a sample in the models: min(1, c / |e / "
+                           "sigma|) (one glitch cannot move them)", positive=True)
+    max_setpoint_error_rad: float = param(20.0 * DEG2RAD, "setpoint errors are clipped here "
+                                          "(the autopilot's rate demand saturates)",
+                                          positive=True)
+    max_energy_error_mps: float = param(10.0, "energy errors (aspd_error + g alt_error / V) are "
+                                        "clipped here (the throttle saturates)", positive=True)
     max_step_s: float = param(1.0, "a longer gap between two control samples restarts the "
                               "models' lagged terms", positive=True)
 
@@ -99,6 +110,9 @@ class ResidualCheckConfig:
     threshold: float = param(SURFACE_J_TH, "J_th on the RMS of the normalised residual "
                              "(dimensionless: multiples of the axis's healthy residual RMS)",
                              positive=True)
+    smoothing_s: float = param(0.0, "time constant of an exponential smoothing of the value "
+                               "before the RMS window (a persistent fault is a bias: smoothing "
+                               "divides the noise by ~sqrt(2 smoothing_s / period)); 0 = none")
     window_s: float = param(1.0, "RMS and confirmation window", positive=True)
     detect_ratio: float = param(0.6, "share of the window's samples above J_th that confirms",
                                 positive=True)
@@ -137,7 +151,7 @@ class AircraftFdiConfig:
     surface: ResidualCheckConfig = section(ResidualCheckConfig,
                                            "aileron, elevator and rudder axes")
     engine: ResidualCheckConfig = section(
-        lambda: ResidualCheckConfig(threshold=ENGINE_J_TH, window_s=2.0),
+        lambda: ResidualCheckConfig(threshold=ENGINE_J_TH, smoothing_s=1.0, window_s=2.0),
         "the engine (thrust deficit: only a specific force below the model counts)")
     effectiveness: ResidualCheckConfig = section(
         lambda: ResidualCheckConfig(threshold=EFFECTIVENESS_J_TH, window_s=1.0),

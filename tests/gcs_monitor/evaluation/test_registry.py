@@ -18,7 +18,7 @@ NAMES = {
     "wan2018_campaign_extensions", "wan2018_campaign_literal_nrz",
     "wan2018_campaign_restart_literal_nrz", "wan2018_campaign_extensions_literal_nrz",
     "wan2018_campaign_scheduled_literal_nrz", "wan2018_campaign_lateral_literal_nrz",
-    "wan2018_campaign_lateral_only_literal_nrz",
+    "wan2018_campaign_lateral_only_literal_nrz", "actuators_sim", "actuators_alfa",
 }
 
 

@@ -8,7 +8,13 @@ import math
 import numpy as np
 import pytest
 
-from gcs_monitor.filters.rls import RlsState, forgetting_factor, rls_predict, rls_step
+from gcs_monitor.filters.rls import (
+    RlsState,
+    forgetting_factor,
+    huber_weight,
+    rls_predict,
+    rls_step,
+)
 
 
 def test_first_step_by_hand() -> None:
@@ -77,3 +83,19 @@ def test_non_finite_sample_is_skipped_and_bad_lambda_rejected() -> None:
     with pytest.raises(ValueError):
         rls_step(st0, np.array([1.0, 0.0]), 1.0, 1.5)
     assert math.isclose(forgetting_factor(10.0, 0.1), math.exp(-0.01))
+
+
+def test_weighted_step_equals_weighted_batch_least_squares() -> None:
+    # weights w_k: RLS minimises sum lambda^(N-k) w_k e_k^2 + lambda^N theta^T P0^-1 theta
+    rng = np.random.default_rng(5)
+    lam, p0, n = 0.97, 50.0, 30
+    phis = rng.normal(size=(n, 2))
+    ys = phis @ np.array([0.5, 2.0]) + 0.1 * rng.normal(size=n)
+    ws = rng.uniform(0.1, 1.0, size=n)
+    st = RlsState.initial(2, p0)
+    for phi, y, w in zip(phis, ys, ws, strict=True):
+        st, _ = rls_step(st, phi, float(y), lam, weight=float(w))
+    lw = ws * lam ** np.arange(n - 1, -1, -1)
+    A = phis.T @ (lw[:, None] * phis) + lam**n * np.eye(2) / p0
+    np.testing.assert_allclose(st.theta, np.linalg.solve(A, phis.T @ (lw * ys)), rtol=1e-9)
+    assert huber_weight(0.5, 3.0) == 1.0 and huber_weight(-6.0, 3.0) == 0.5
