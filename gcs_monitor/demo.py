@@ -26,6 +26,8 @@ from gcs_monitor.fdi.events import AlarmEvent, AlarmKind
 
 _SENSOR = re.compile(r"^(aoa|cas)(\d)$")
 _IMU = re.compile(r"^imu(\d)\.(acc|gyro)\.([xyzpqr])$")
+_ACTUATOR = re.compile(r"^actuator\.(aileron|elevator|rudder|engine)$")
+_ACTUATORS = ("aileron", "elevator", "rudder", "engine")  # the simulator's actuator indices
 
 
 def truth_channel(sim_channel: str) -> ChannelId | None:
@@ -36,6 +38,9 @@ def truth_channel(sim_channel: str) -> ChannelId | None:
     m = _IMU.match(sim_channel)
     if m:
         return ChannelId(m.group(2), int(m.group(1)), m.group(3))
+    m = _ACTUATOR.match(sim_channel)
+    if m:
+        return ChannelId("actuator", _ACTUATORS.index(m.group(1)), m.group(1))
     return None
 
 
@@ -55,7 +60,8 @@ def summary_rows(events: list[AlarmEvent], faults: list[dict[str, Any]]) -> list
     healthy channel and per lost set (columns: :data:`SUMMARY_HEADER`). No NaN: a value that
     does not exist is ``-``."""
     raised = {first.channel: (first, last) for first, last, _ in first_and_final(events)
-              if first.kind in (AlarmKind.SENSOR_FAULT, AlarmKind.SET_LOST)}
+              if first.kind in (AlarmKind.SENSOR_FAULT, AlarmKind.ACTUATOR_FAULT,
+                                AlarmKind.SET_LOST)}
     rows = []
     faulty = set()
     for f in faults:

@@ -218,6 +218,7 @@ class ActuatorRanges:
     mean_wind_mps: float = 6.0  # horizontal steady wind up to this, random direction
     tas_mps: tuple[float, float] = (22.0, 28.0)
     alt_m: tuple[float, float] = (300.0, 1500.0)
+    servo_hz: float = 50.0  # SERVO_OUTPUT_RAW rate (ArduPlane SRx_RC_CHAN = 50)
 
 
 # (actuator, kind) of the ``actuators`` set, cycled so every case is in a small campaign
@@ -250,8 +251,8 @@ def _uav(name: str, description: str, rng: np.random.Generator, i: int,
                             tas_mps=float(round(_u(rng, r.tas_mps), 2)),
                             heading_deg=float(round(rng.uniform(0, 360), 1))),
         wind=wind, manoeuvre=ManoeuvreSpec(kind=man, start_s=5.0, surface=surface, repeat=True),
-        sensors=SensorConfig(n_imu=1), output=OutputConfig(), actuator_faults=faults,
-        source=source)
+        sensors=SensorConfig(n_imu=1), output=OutputConfig(servo_output_raw_hz=r.servo_hz),
+        actuator_faults=faults, source=source)
 
 
 def actuators(n_runs: int, seed: int = 0, *,

@@ -14,16 +14,20 @@ factor ``lambda`` (memory ``1 / (1 - lambda)`` samples)::
 Without excitation the division by ``lambda`` makes ``P`` grow without bound (estimator
 wind-up: the next excitation then throws ``theta`` about); ``P'`` is scaled down whenever its
 trace exceeds ``trace_max`` (a constant-trace bound, Ljung sec. 5.6). The update is skipped for
-a non-finite sample; the state is immutable, a step returns a new one.
+a non-finite sample. :func:`rls_step` returns a new immutable state; :class:`RlsFilter`
+updates its arrays in place (a monitor's per-sample path). Both run the one implementation,
+the numba kernel ``filters/_rls_jit.py``; its numpy reference is ``tests/reference/rls.py``.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from types import ModuleType
 
 import numpy as np
 
+from gcs_monitor.core.kernels import load_kernels
 from gcs_monitor.core.types import Mat, Vec
 
 
@@ -61,7 +65,8 @@ def rls_predict(state: RlsState, phi: Vec) -> float:
 
 def rls_step(state: RlsState, phi: Vec, y: float, lam: float, *,
              trace_max: float = math.inf, weight: float = 1.0) -> tuple[RlsState, RlsUpdate]:
-    """One RLS update with forgetting factor ``lam`` in (0, 1] (module docstring).
+    """One RLS update with forgetting factor ``lam`` in (0, 1] (module docstring), on a copy
+    of ``state``: the kernel ``filters/_rls_jit.update`` (the one implementation).
 
     Parameters
     ----------
@@ -74,24 +79,53 @@ def rls_step(state: RlsState, phi: Vec, y: float, lam: float, *,
         e_k^2`` (a robust M-estimator's weight, e.g. Huber's ``min(1, c / |e / sigma|)``):
         ``s = lambda / w + phi^T P phi``
     """
+    _check(lam, weight)
+    theta, P = state.theta.copy(), state.P.copy()
+    pred, e, s = _kernel().update(theta, P, np.asarray(phi, dtype=np.float64), float(y), lam,
+                                  trace_max, weight, np.empty(len(theta)))
+    if not (math.isfinite(e) and math.isfinite(s)) or s <= 0.0:
+        return state, RlsUpdate(pred, e, s)
+    return RlsState(theta, P), RlsUpdate(pred, e, s)
+
+
+class RlsFilter:
+    """The same update on a mutable estimate (the per-sample path of a monitor: no copies).
+
+    ``theta`` (n,) and ``P`` (n, n) are updated in place by :meth:`update`; :meth:`state`
+    gives a frozen snapshot."""
+
+    __slots__ = ("theta", "P", "_scratch", "_k")
+
+    def __init__(self, n: int, p0: float) -> None:
+        self.theta = np.zeros(n)
+        self.P = np.eye(n) * p0
+        self._scratch = np.empty(n)
+        self._k = _kernel()
+
+    def predict(self, phi: Vec) -> float:
+        return float(self._k.predict(self.theta, phi))
+
+    def update(self, phi: Vec, y: float, lam: float, *, trace_max: float = math.inf,
+               weight: float = 1.0) -> RlsUpdate:
+        """:func:`rls_step` in place."""
+        _check(lam, weight)
+        pred, e, s = self._k.update(self.theta, self.P, phi, y, lam, trace_max, weight,
+                                    self._scratch)
+        return RlsUpdate(pred, e, s)
+
+    def state(self) -> RlsState:
+        return RlsState(self.theta.copy(), self.P.copy())
+
+
+def _check(lam: float, weight: float) -> None:
     if not 0.0 < lam <= 1.0:
         raise ValueError(f"forgetting factor must be in (0, 1], got {lam}")
     if not 0.0 < weight <= 1.0:
         raise ValueError(f"weight must be in (0, 1], got {weight}")
-    theta, P = state.theta, state.P
-    pred = float(phi @ theta)
-    e = y - pred
-    Pphi = P @ phi
-    s = lam / weight + float(phi @ Pphi)
-    if not (math.isfinite(e) and math.isfinite(s)) or s <= 0.0:
-        return state, RlsUpdate(pred, e, s)
-    K = Pphi / s
-    P_new = (P - np.outer(K, Pphi)) / lam
-    P_new = 0.5 * (P_new + P_new.T)  # symmetric despite round-off
-    tr = float(np.trace(P_new))
-    if tr > trace_max:
-        P_new *= trace_max / tr
-    return RlsState(theta + K * e, P_new), RlsUpdate(pred, e, s)
+
+
+def _kernel() -> ModuleType:
+    return load_kernels("gcs_monitor.filters._rls_jit")
 
 
 def huber_weight(normalised_error: float, c: float) -> float:

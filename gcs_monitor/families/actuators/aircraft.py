@@ -75,13 +75,15 @@ from gcs_monitor.fdi.confirmation import Confirmation, ConfirmationParams
 from gcs_monitor.fdi.events import AlarmEvent, AlarmKind, ChannelStatus, FaultType
 from gcs_monitor.fdi.records import Estimate, FamilyStatus
 from gcs_monitor.fdi.residuals import ResidualRms, RmsWindowParams
-from gcs_monitor.filters.rls import RlsState, huber_weight, rls_step
+from gcs_monitor.filters.rls import RlsFilter, huber_weight
 from gcs_monitor.telemetry.frame import Frame
 from gcs_monitor.telemetry.period import SamplePeriod
 
 US_PER_S = 1_000_000
 ENGINE = 3
 ESTIMATOR = "actuators_aircraft"
+PERIOD_REFRESH = 50  # axis steps between two re-measurements of the step period
+ESTIMATE_PERIOD_US = 100_000  # estimates (dashboard, evaluation) at most at 10 Hz
 SERVO, SETPOINT = "servo", "setpoint"
 CHANNELS = tuple(ChannelId("actuator", i, name) for i, name in enumerate(ACTUATORS))
 # the effectiveness checks' statuses (their alarms are the actuator's own channel's)
@@ -110,6 +112,11 @@ class Signals:
     servo_t_us: int
     nav_t_us: int
     hud_t_us: int
+
+
+def _share(kappa: float) -> str:
+    """The share of the command that still acts, as an operator reads it (0..100 %)."""
+    return f"{100.0 * min(1.0, max(0.0, kappa)):.0f} %"
 
 
 def _wrap(a: float) -> float:
@@ -167,16 +174,20 @@ class _Axis:
     eff_cfg: ResidualCheckConfig
     one_sided: bool
     mode: str = ""
-    ref: RlsState | None = None
-    trk: RlsState | None = None
+    ref: RlsFilter | None = None
+    trk: RlsFilter | None = None
     sigma2: float = math.nan
     sigma_n: int = 0  # samples in sigma2 (an exact mean until its memory is reached)
     e_ref: float = 0.0  # the reference model's a priori prediction error of this step
+    e_prev: float = math.nan  # that of the previous step
+    cov1: float = 0.0  # lag-1 autocovariance of the healthy prediction error
     prev: Signals | None = None
     response: tuple[float, ...] = ()
     cmd_t_us: int = -1
     t_start_us: int = 0
     period: SamplePeriod = field(default_factory=SamplePeriod)
+    period_s: float = math.nan  # the measured step period, refreshed every PERIOD_REFRESH steps
+    steps: int = 0
     res: _Check | None = None
     eff: _Check | None = None
     alarm: AlarmStateMachine | None = None
@@ -218,9 +229,13 @@ class _Axis:
         self.ref = self.trk = None
         self.sigma2 = math.nan
         self.sigma_n = 0
+        self.e_prev = math.nan
+        self.cov1 = 0.0
         self.prev = None
         self.t_start_us = t_us
         self.period.reset()
+        self.period_s = math.nan
+        self.steps = 0
         self.hist.clear()
         self.res = self.eff = None  # rebuilt with the new step period
         self.nu = self.z = 0.0
@@ -243,6 +258,7 @@ class AircraftTier:
         self._seen_inputs = False
         self._estimate: Estimate | None = None
         self._max_defl = cfg.outputs.max_deflection_rad
+        self._cmd_key: tuple[int, int, int] = (-2, -2, -2)  # command samples seen last Frame
 
     # -- signals ---------------------------------------------------------------------------
     def _signals(self, frame: Frame) -> Signals | None:
@@ -368,6 +384,14 @@ class AircraftTier:
 
     # -- the three phases -----------------------------------------------------------------------
     def predict(self, frame: Frame) -> Signals | None:
+        """The Frame's signals, or None when no command stream has a new sample (most Frames:
+        commands come at 10-50 Hz, Frames at the IMU rate)."""
+        servo, nav, hud = frame.servo, frame.nav, frame.hud
+        key = (servo.t_us if servo is not None else -1, nav.t_us if nav is not None else -1,
+               hud.t_us if hud is not None else -1)
+        if key == self._cmd_key and (servo is not None or nav is not None):
+            return None
+        self._cmd_key = key
         return self._signals(frame)
 
     def judge(self, frame: Frame, s: Signals | None) -> Verdict:
@@ -379,7 +403,8 @@ class AircraftTier:
                        "control surfaces and a propulsion engine"))
         if s is None:
             return Verdict(FamilyStatus(self.name, t, False, sample=False,
-                                        reason="no IMU sample", inputs=self._seen_inputs))
+                                        reason="no new control sample",
+                                        inputs=self._seen_inputs))
         stepped: list[tuple[_Axis, float, list[float], float]] = []
         reasons: list[str] = []
         for ax in self.axes:
@@ -398,7 +423,8 @@ class AircraftTier:
                                     else "no new control sample")
         status = FamilyStatus(self.name, t, judged, sample=bool(stepped), reason=reason,
                               inputs=self._seen_inputs)
-        if stepped:
+        if stepped and (self._estimate is None or t - self._estimate.t_us >= ESTIMATE_PERIOD_US
+                        or events):
             self._estimate = self._estimates(t, frame)
         return Verdict(status, events=events, channels=statuses or [])
 
@@ -428,16 +454,19 @@ class AircraftTier:
             ax.period.add(s.t_us)
             return None
         ax.period.add(s.t_us)
+        ax.steps += 1
+        if ax.steps % PERIOD_REFRESH == 1 or ax.period_s != ax.period_s:
+            ax.period_s = ax.period.seconds()  # a median of 16 intervals: not every step
         y, phi = self._regression(ax, s, prev)
         if not (math.isfinite(y) and all(math.isfinite(x) for x in phi)):
             reasons.append(f"{ax.channel.axis}: inputs not finite")
             return None
         m = self.cfg.model
         if ax.ref is None:
-            ax.ref = RlsState.initial(len(phi), m.initial_covariance)
-            ax.trk = RlsState.initial(2, m.initial_covariance)
+            ax.ref = RlsFilter(len(phi), m.initial_covariance)
+            ax.trk = RlsFilter(2, m.initial_covariance)
         phi_v = np.array(phi)
-        e = y - float(phi_v @ ax.ref.theta)
+        e = y - ax.ref.predict(phi_v)
         ax.e_ref = e
         floor = m.min_accel_sigma_mps2 if ax.index == ENGINE else m.min_rate_sigma_radps
         sigma = math.sqrt(max(ax.sigma2, floor * floor)) if ax.sigma2 == ax.sigma2 else math.inf
@@ -471,7 +500,7 @@ class AircraftTier:
         m = self.cfg.model
         if s.t_us - ax.t_start_us < m.warmup_s * US_PER_S or ax.sigma2 != ax.sigma2:
             return "warm-up"
-        period = ax.period.seconds()
+        period = ax.period_s
         if math.isfinite(period) and 1.0 / period < self.cfg.min_rate_hz:
             return (f"control samples at {1.0 / period:.1f} Hz, below the "
                     f"{self.cfg.min_rate_hz:g} Hz the aircraft tier needs")
@@ -492,7 +521,7 @@ class AircraftTier:
 
     def _build_fdi(self, ax: _Axis) -> None:
         """The two checks, sized with the axis's measured step period, and its alarm."""
-        period = ax.period.seconds()
+        period = ax.period_s
         if not math.isfinite(period):
             period = 0.1
         ax.res = _Check(ax.res_cfg, period, one_sided=ax.one_sided)
@@ -510,7 +539,11 @@ class AircraftTier:
         ref, trk = ax.ref, ax.trk
         if ref is None or trk is None or not ax.sigma2 > 0.0:
             return 0.0
-        se = math.sqrt(ax.sigma2 * float(trk.P[0, 0]))
+        # colored residuals (turbulence, unmodelled dynamics) carry less information than
+        # white ones: the variance of an estimate grows by (1 + rho) / (1 - rho) for a lag-1
+        # autocorrelation rho (AR(1); Grauer and Morelli, NASA 2016, on RLS uncertainty)
+        rho = min(0.99, max(0.0, ax.cov1 / ax.sigma2))
+        se = math.sqrt(ax.sigma2 * float(trk.P[0, 0]) * (1.0 + rho) / (1.0 - rho))
         if not se > 0.0:
             return 0.0
         return -float(trk.theta[0]) * (1.0 if ref.theta[0] >= 0.0 else -1.0) / se
@@ -519,21 +552,21 @@ class AircraftTier:
         """Tracking model always; reference model and residual RMS only in healthy flight."""
         assert ax.ref is not None and ax.trk is not None and ax.prev is not None
         m = self.cfg.model
-        period = ax.period.seconds()
+        period = ax.period_s
         dt = period if math.isfinite(period) else 0.1
         phi_v = np.array(phi)
         tr = m.covariance_trace_max
         # tracking regression of the reference residual on the command: e = b (kappa - 1) x + c
         # (unweighted: it is there to follow a change, large residuals included)
-        ax.trk, _ = rls_step(ax.trk, np.array((phi[0], 1.0)), ax.e_ref,
-                             math.exp(-dt / m.tracking_memory_s), trace_max=tr)
+        ax.trk.update(np.array((phi[0], 1.0)), ax.e_ref, math.exp(-dt / m.tracking_memory_s),
+                      trace_max=tr)
         # Huber weights in the reference model: one glitch (a setpoint that jumps for a
         # sample) must not move what healthy flight looks like
         nu = abs(ax.e_ref) / math.sqrt(ax.sigma2) if ax.sigma2 > 0.0 else 0.0
         w = huber_weight(nu, m.huber_c)
         if not freeze:
-            ax.ref, up = rls_step(ax.ref, phi_v, y, math.exp(-dt / m.reference_memory_s),
-                                  trace_max=tr, weight=w)
+            up = ax.ref.update(phi_v, y, math.exp(-dt / m.reference_memory_s), trace_max=tr,
+                               weight=w)
             # the residual RMS over healthy flight, from half-way through the warm-up (the
             # reference model's start-up errors are not its healthy level): an exact mean of
             # the squared a priori errors until the memory is reached, exponential after
@@ -545,12 +578,19 @@ class AircraftTier:
                 if ax.sigma_n > 1:  # Huber: an outlier counts at c sigma
                     e2 = min(e2, m.huber_c * m.huber_c * ax.sigma2)
                 ax.sigma2 = e2 if ax.sigma_n == 1 else (1.0 - a) * ax.sigma2 + a * e2
+                if ax.e_prev == ax.e_prev:
+                    c = m.huber_c * math.sqrt(ax.sigma2)
+                    e1 = max(-c, min(c, up.error)) * max(-c, min(c, ax.e_prev))
+                    ax.cov1 = e1 if ax.sigma_n == 2 else (1.0 - a) * ax.cov1 + a * e1
+                ax.e_prev = up.error
+            else:
+                ax.e_prev = math.nan
         b_ref = float(ax.ref.theta[0])
         ax.effectiveness = 1.0 + float(ax.trk.theta[0]) / b_ref if abs(b_ref) > 1e-9 \
             else math.nan
         if ax.index != ENGINE:
             if ax.mode == SERVO and abs(b_ref) > 1e-9 and sq > 0.0:
-                e = y - float(phi_v @ ax.ref.theta)
+                e = y - ax.ref.predict(phi_v)
                 ax.position_rad = (phi[0] + e / b_ref) / sq
             else:
                 ax.position_rad = math.nan
@@ -585,15 +625,32 @@ class AircraftTier:
                 if sm.active and t_us < ax.next_class_us:
                     continue
                 ax.next_class_us = t_us + round(self.cfg.fdi.classify.reclassify_s * US_PER_S)
-                ft, mag, msg = self._classify(ax)
+                ft, mag, msg, conf = self._classify(ax)
                 events += sm.step(t_us, True, fault_type=ft, magnitude=mag, rms=ax.J,
-                                  threshold=ax.threshold, message=msg)
+                                  threshold=ax.threshold, message=msg, confidence=conf)
             elif sm.active:
                 events += sm.step(t_us, False, rms=ax.J, threshold=ax.threshold,
                                   message=f"{ax.channel.axis}: response matches the model again")
         return events
 
-    def _classify(self, ax: _Axis) -> tuple[FaultType, float, str]:
+    def _classify(self, ax: _Axis) -> tuple[FaultType, float, str, float]:
+        """Fault class, magnitude, message and confidence (module docstring). The confidence
+        is how far ``kappa`` sits inside its class's band, as a share of the band's half-width
+        (1 at or beyond it); 0 for unknown."""
+        c = self.cfg.fdi.classify
+        ft, mag, msg = self._class_of(ax)
+        kappa, lo = ax.effectiveness, c.stuck_gain
+        hi = 1.0 - 0.5 * lo
+        conf = 0.0
+        if ax.index == ENGINE and ft is FaultType.LOSS_OF_EFFECTIVENESS:
+            conf = min(1.0, mag / 0.5) if math.isfinite(mag) else 0.5
+        elif ft is FaultType.STUCK and math.isfinite(kappa):
+            conf = min(1.0, max(0.0, (lo - kappa) / lo))
+        elif ft is FaultType.LOSS_OF_EFFECTIVENESS and math.isfinite(kappa):
+            conf = min(1.0, max(0.0, min(kappa - lo, hi - kappa) / (0.5 * (hi - lo))))
+        return ft, mag, msg, conf
+
+    def _class_of(self, ax: _Axis) -> tuple[FaultType, float, str]:
         """Fault class and magnitude from the history (module docstring)."""
         c = self.cfg.fdi.classify
         name = ax.channel.axis
@@ -624,19 +681,23 @@ class AircraftTier:
         if kappa < c.stuck_gain:
             if ax.mode != SERVO:
                 return (FaultType.STUCK, math.nan,
-                        f"{name}: stuck or without effect ({kappa:.2f} of the command acts; "
-                        "position unobservable without servo outputs)")
+                        f"{name}: stuck or without effect ({_share(kappa)} of the command "
+                        "acts; position unobservable without servo outputs)")
             # the surface position that explains the response, averaged over the history
             pos = float(np.mean((x + e / b) / sq))
             if not abs(pos) <= 2.0 * self._max_defl[ax.index]:  # no stuck surface sits there
                 return (FaultType.STUCK, math.nan,
-                        f"{name}: stuck or without effect ({kappa:.2f} of the command acts)")
+                        f"{name}: stuck or without effect ({_share(kappa)} of the command "
+                        "acts)")
             zero = abs(pos) < c.zero_position_ratio * self._max_defl[ax.index]
+            # reported in steps of a tenth of a degree (and 0 at zero): the alarm is updated
+            # when the position moves, not when its estimate wobbles
+            pos = 0.0 if zero else round(pos * RAD2DEG, 1) / RAD2DEG
             where = "zero" if zero else f"{pos * RAD2DEG:.1f} deg"
-            return FaultType.STUCK, pos, f"{name}: stuck at {where} ({kappa:.2f} of the " \
+            return FaultType.STUCK, pos, f"{name}: stuck at {where} ({_share(kappa)} of the " \
                 f"command acts)"
         if kappa < 1.0 - 0.5 * c.stuck_gain:
-            loss = 1.0 - kappa
+            loss = round(1.0 - kappa, 2)
             return (FaultType.LOSS_OF_EFFECTIVENESS, loss,
                     f"{name}: {100 * loss:.0f} % of its effectiveness lost ({src})")
         return (FaultType.UNKNOWN, math.nan,

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from gcs_monitor.filters.rls import (
+    RlsFilter,
     RlsState,
     forgetting_factor,
     huber_weight,
@@ -99,3 +100,24 @@ def test_weighted_step_equals_weighted_batch_least_squares() -> None:
     A = phis.T @ (lw[:, None] * phis) + lam**n * np.eye(2) / p0
     np.testing.assert_allclose(st.theta, np.linalg.solve(A, phis.T @ (lw * ys)), rtol=1e-9)
     assert huber_weight(0.5, 3.0) == 1.0 and huber_weight(-6.0, 3.0) == 0.5
+
+
+def test_kernel_matches_the_numpy_reference_and_the_in_place_filter() -> None:
+    from tests.reference.rls import rls_update
+
+    rng = np.random.default_rng(7)
+    st = RlsState.initial(4, 10.0)
+    filt = RlsFilter(4, 10.0)
+    th, P = st.theta.copy(), st.P.copy()
+    for _ in range(200):
+        phi = rng.normal(size=4)
+        y, lam, w = float(rng.normal()), 0.97, float(rng.uniform(0.2, 1.0))
+        st, up = rls_step(st, phi, y, lam, trace_max=30.0, weight=w)
+        filt.update(phi, y, lam, trace_max=30.0, weight=w)
+        th, P, e, s = rls_update(th, P, phi, y, lam, 30.0, w)
+        assert math.isclose(up.error, e, rel_tol=1e-12, abs_tol=1e-12)
+    # loops and numpy sum in different orders: a few ulps per step over 200 steps
+    np.testing.assert_allclose(st.theta, th, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(st.P, P, rtol=1e-9, atol=1e-12)
+    np.testing.assert_array_equal(filt.theta, st.theta)  # the same kernel, the same bits
+    np.testing.assert_array_equal(filt.P, st.P)
