@@ -579,7 +579,10 @@ def build_parser() -> argparse.ArgumentParser:
     s.set_defaults(func=cmd_calibrate)
     s = sub.add_parser("demo", help="simulate a faulty flight, monitor it, write a recording")
     s.add_argument("--out", type=Path, default=Path("gcs_demo"))
-    s.add_argument("--preset", default="demo_airdata_faults")
+    s.add_argument("--preset", default="demo_airdata_faults",
+                   help="the flight: demo_airdata_faults (transport; AoA bias, CAS drift and "
+                        "runaway), demo_actuator_faults (small UAV; elevator stuck at zero), or "
+                        "any sim-vehicle preset")
     s.set_defaults(func=cmd_demo)
     s = sub.add_parser("evaluate", help="campaigns and paper experiments (tables + plots)")
     s.add_argument("--preset-set", help="campaign preset set (triplex, wan2018, fault_free)")

@@ -179,8 +179,7 @@ class _Axis:
     sigma2: float = math.nan
     sigma_n: int = 0  # samples in sigma2 (an exact mean until its memory is reached)
     e_ref: float = 0.0  # the reference model's a priori prediction error of this step
-    e_prev: float = math.nan  # that of the previous step
-    cov1: float = 0.0  # lag-1 autocovariance of the healthy prediction error
+    trk_sigma2: float = math.nan  # the tracking regression's own residual variance
     prev: Signals | None = None
     response: tuple[float, ...] = ()
     cmd_t_us: int = -1
@@ -229,8 +228,7 @@ class _Axis:
         self.ref = self.trk = None
         self.sigma2 = math.nan
         self.sigma_n = 0
-        self.e_prev = math.nan
-        self.cov1 = 0.0
+        self.trk_sigma2 = math.nan
         self.prev = None
         self.t_start_us = t_us
         self.period.reset()
@@ -539,11 +537,12 @@ class AircraftTier:
         ref, trk = ax.ref, ax.trk
         if ref is None or trk is None or not ax.sigma2 > 0.0:
             return 0.0
-        # colored residuals (turbulence, unmodelled dynamics) carry less information than
-        # white ones: the variance of an estimate grows by (1 + rho) / (1 - rho) for a lag-1
-        # autocorrelation rho (AR(1); Grauer and Morelli, NASA 2016, on RLS uncertainty)
-        rho = min(0.99, max(0.0, ax.cov1 / ax.sigma2))
-        se = math.sqrt(ax.sigma2 * float(trk.P[0, 0]) * (1.0 + rho) / (1.0 - rho))
+        # the slope's residual variance: the tracking regression's own (what the command does
+        # not explain now: large in a manoeuvre the reference never saw, small when a stuck or
+        # weakened surface explains the residual), not below a quarter of the healthy level
+        var = max(ax.trk_sigma2, 0.25 * ax.sigma2) if ax.trk_sigma2 == ax.trk_sigma2 \
+            else ax.sigma2
+        se = math.sqrt(var * float(trk.P[0, 0]))
         if not se > 0.0:
             return 0.0
         return -float(trk.theta[0]) * (1.0 if ref.theta[0] >= 0.0 else -1.0) / se
@@ -558,8 +557,12 @@ class AircraftTier:
         tr = m.covariance_trace_max
         # tracking regression of the reference residual on the command: e = b (kappa - 1) x + c
         # (unweighted: it is there to follow a change, large residuals included)
-        ax.trk.update(np.array((phi[0], 1.0)), ax.e_ref, math.exp(-dt / m.tracking_memory_s),
-                      trace_max=tr)
+        a_trk = math.exp(-dt / m.tracking_memory_s)
+        up_trk = ax.trk.update(np.array((phi[0], 1.0)), ax.e_ref, a_trk, trace_max=tr)
+        e2 = up_trk.error * up_trk.error
+        if math.isfinite(e2):
+            ax.trk_sigma2 = e2 if ax.trk_sigma2 != ax.trk_sigma2 else \
+                a_trk * ax.trk_sigma2 + (1.0 - a_trk) * e2
         # Huber weights in the reference model: one glitch (a setpoint that jumps for a
         # sample) must not move what healthy flight looks like
         nu = abs(ax.e_ref) / math.sqrt(ax.sigma2) if ax.sigma2 > 0.0 else 0.0
@@ -578,13 +581,7 @@ class AircraftTier:
                 if ax.sigma_n > 1:  # Huber: an outlier counts at c sigma
                     e2 = min(e2, m.huber_c * m.huber_c * ax.sigma2)
                 ax.sigma2 = e2 if ax.sigma_n == 1 else (1.0 - a) * ax.sigma2 + a * e2
-                if ax.e_prev == ax.e_prev:
-                    c = m.huber_c * math.sqrt(ax.sigma2)
-                    e1 = max(-c, min(c, up.error)) * max(-c, min(c, ax.e_prev))
-                    ax.cov1 = e1 if ax.sigma_n == 2 else (1.0 - a) * ax.cov1 + a * e1
-                ax.e_prev = up.error
-            else:
-                ax.e_prev = math.nan
+
         b_ref = float(ax.ref.theta[0])
         ax.effectiveness = 1.0 + float(ax.trk.theta[0]) / b_ref if abs(b_ref) > 1e-9 \
             else math.nan
