@@ -257,6 +257,9 @@ class AircraftTier:
         self._estimate: Estimate | None = None
         self._max_defl = cfg.outputs.max_deflection_rad
         self._cmd_key: tuple[int, int, int] = (-2, -2, -2)  # command samples seen last Frame
+        # some axis has not stepped on the latest command yet (it waits for a new response:
+        # ALFA's setpoints come at ~12 Hz, its IMU at 2.5 Hz)
+        self._pending = True
 
     # -- signals ---------------------------------------------------------------------------
     def _signals(self, frame: Frame) -> Signals | None:
@@ -387,9 +390,11 @@ class AircraftTier:
         servo, nav, hud = frame.servo, frame.nav, frame.hud
         key = (servo.t_us if servo is not None else -1, nav.t_us if nav is not None else -1,
                hud.t_us if hud is not None else -1)
-        if key == self._cmd_key and (servo is not None or nav is not None):
-            return None
-        self._cmd_key = key
+        if key != self._cmd_key:
+            self._cmd_key = key
+            self._pending = True
+        elif not self._pending and (servo is not None or nav is not None):
+            return None  # every axis has stepped on the latest commands
         return self._signals(frame)
 
     def judge(self, frame: Frame, s: Signals | None) -> Verdict:
@@ -416,6 +421,8 @@ class AircraftTier:
         freeze = any(ax.suspected(self.cfg.model.freeze_ratio) for ax in self.axes)
         for ax, y, phi, sq in stepped:
             self._learn(ax, y, phi, sq, freeze)
+        self._pending = any(ax.mode and self._command_t(ax, s) > ax.cmd_t_us
+                            for ax in self.axes)
         judged = any(ax.judged for ax, *_ in stepped)
         reason = "" if judged else ("; ".join(dict.fromkeys(reasons)) if reasons
                                     else "no new control sample")

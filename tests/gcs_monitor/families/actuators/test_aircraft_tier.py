@@ -126,3 +126,19 @@ def test_command_source_is_respected(source):
     _run(tier, _frames(3.0))
     # the frames carry servo outputs and no setpoints: only "servo" finds a command
     assert (tier.axes[0].mode == "servo") is (source == "servo")
+
+
+def test_commands_and_responses_on_different_frames_still_step():
+    """ALFA-like: a new command every 2nd Frame, a new response every 5th. An axis steps at each
+    new response that follows a command newer than its last step (every 5th Frame here)."""
+    frames = list(_frames(20.0, repeat=5))
+    held = frames[0].servo
+    out = []
+    for k, f in enumerate(frames):
+        if k % 2 == 0:
+            held = f.servo
+        out.append(dataclasses.replace(f, servo=held))
+    tier = _tier()
+    _run(tier, out)
+    assert abs(tier.axes[0].period.seconds() - 5 * DT) < 1e-9
+    assert tier.axes[0].steps == pytest.approx(len(frames) / 5, abs=2)
