@@ -460,8 +460,9 @@ class AircraftTier:
             return None
         ax.period.add(s.t_us)
         ax.steps += 1
-        if ax.steps % PERIOD_REFRESH == 1 or ax.period_s != ax.period_s:
-            ax.period_s = ax.period.seconds()  # a median of 16 intervals: not every step
+        if ax.steps <= PERIOD_REFRESH or ax.steps % PERIOD_REFRESH == 0:
+            # a median of 16 intervals: every step while it settles, then now and then
+            ax.period_s = ax.period.seconds()
         y, phi = self._regression(ax, s, prev)
         if not (math.isfinite(y) and all(math.isfinite(x) for x in phi)):
             reasons.append(f"{ax.channel.axis}: inputs not finite")
