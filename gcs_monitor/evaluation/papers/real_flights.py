@@ -25,6 +25,7 @@ from typing import Any
 
 from gcs_monitor.calibrate import calibrate
 from gcs_monitor.config import MonitorConfig
+from gcs_monitor.convert.logs import LogError
 from gcs_monitor.evaluation.report import md_table, write_csv
 from gcs_monitor.evaluation.runner import run_parallel
 from gcs_monitor.fdi.events import AlarmKind, AlarmState, FaultType
@@ -75,8 +76,6 @@ class FlightResult:
 
 def monitor_flight(path: Path, cfg: MonitorConfig, set_name: str, label: str) -> FlightResult:
     """Replay ``path`` with ``cfg`` (as ``gcs-monitor replay``) and score it: no sensor fault."""
-    from gcs_monitor.convert.logs import LogError
-
     res = FlightResult(set_name, path.name, label)
     last: dict[str, Any] = {}
     t: list[int] = [0, 0]  # first and last Frame time, µs

@@ -19,6 +19,9 @@ NAMES = {
     "wan2018_campaign_restart_literal_nrz", "wan2018_campaign_extensions_literal_nrz",
     "wan2018_campaign_scheduled_literal_nrz", "wan2018_campaign_lateral_literal_nrz",
     "wan2018_campaign_lateral_only_literal_nrz",
+    # issue 15: never blind, never fooled
+    "rate_sweep", "presets_weather", "triplex_weather", "wan2018_campaign_weather",
+    "real_flights",
 }
 
 
