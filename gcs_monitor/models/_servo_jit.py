@@ -1,0 +1,301 @@
+"""The monitor's closed-loop servo model in numba (Lu2017 eqs. 4-13): its one implementation.
+
+The servo as a ground monitor sees it: the hydraulic plant (eq. 4) driven by the NDI valve law
+(eq. 13, relative degree 3, see ``models/servo.py``) on the model's own states, tracking the
+third-order reference model driven by the rod command, with the input fault ``f^i`` added to
+the saturated valve command (as the simulator's servo adds an OFC). State
+``s = [x1, x2, x3, r, r', r'']``; the filters estimate ``x = s[:3]``, the reference states
+follow from the command.
+
+* :func:`deriv` -- ``ds/dt``;
+* :func:`jacobian` -- ``A = dx_dot/dx`` (3, 3) of the *closed* loop (the NDI law depends on x)
+  and ``G = dx_dot/df^i`` (3,);
+* :func:`propagate` -- RK4 over one sample interval in substeps, the rod command linear between
+  its two samples, with the transition ``Phi``, the fault input matrix ``Gamma`` and the
+  discrete process noise ``Q_d`` accumulated over the substeps (:func:`expm_aug`: scaling and
+  squaring of the augmented matrix ``[[A, G], [0, 0]]``; the closed loop's Jacobian has entries
+  of ~4e3 1/s, so a short series on ``A dt`` would not do).
+
+The chamber gain ``c(x1)`` is evaluated with x1 clamped to the rod stroke (it is singular at
+``x1 = V_m / A_p``, far outside the stroke). The constants travel in one array built by
+``models.servo.pack_params`` (``P_*`` indices). The plain-float reference of the equivalence
+test is ``tests/reference/servo_model.py``. Loaded through ``gcs_monitor.core.kernels``.
+"""
+# ruff: noqa: N803, N806, E741
+# mypy: disable-error-code="no-untyped-def"
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+jit = numba.njit(cache=True, fastmath=False, nogil=True)
+
+(
+    P_APS, P_BB, P_INV_M, P_VMAX, P_LEAK, P_CNUM, P_VM2, P_A2, P_W3, P_Z2W2, P_Z2W,
+    P_K2, P_K1, P_K0, P_UMAX, P_STROKE,
+) = range(16)
+N_PARAMS = 16
+N_S = 6  # [x1, x2, x3, r, r', r'']
+N_X = 3  # plant states the filters estimate
+SQRT_FLOOR = 1.0e-6  # floor under sqrt(1 - sign x3) in the NDI law, as the simulator's servo
+TAYLOR_ORDER = 10  # series of exp(M h / 2^s) with |M h / 2^s|_1 <= 1/2: error < 1e-10
+MAX_SQUARINGS = 40
+
+
+@jit
+def chamber(x1, prm):
+    """``(c(x1), dc/dx1)``: the chamber gain of eq. 4 row 3, x1 clamped to the stroke."""
+    st = prm[P_STROKE]
+    inside = True
+    if x1 > st:
+        x1 = st
+        inside = False
+    elif x1 < -st:
+        x1 = -st
+        inside = False
+    den = prm[P_VM2] - prm[P_A2] * x1 * x1
+    c = prm[P_CNUM] / den
+    dc = c * 2.0 * prm[P_A2] * x1 / den if inside else 0.0
+    return c, dc
+
+
+@jit
+def reference_jerk(s, q_com, prm):
+    """``r'''`` of the reference model ``w^3 / ((s + w)(s^2 + 2 zeta w s + w^2))``."""
+    return prm[P_W3] * (q_com - s[3]) - prm[P_Z2W2] * s[4] - prm[P_Z2W] * s[5]
+
+
+@jit
+def ndi(s, q_com, prm, grad):
+    """Saturated NDI valve command (Lu2017 eq. 13, r = 3) and, in ``grad`` (3,), its gradient
+    with respect to (x1, x2, x3) (zero when saturated)."""
+    x1 = s[0]
+    x2 = s[1]
+    x3 = s[2]
+    aps = prm[P_APS]
+    bb = prm[P_BB]
+    inv_m = prm[P_INV_M]
+    leak = prm[P_LEAK]
+    k2 = prm[P_K2]
+    k1 = prm[P_K1]
+    k0 = prm[P_K0]
+    rddd = reference_jerk(s, q_com, prm)
+    cy, dcy = chamber(x1, prm)
+    ydd = (aps * x3 - bb * x2) * inv_m
+    lf3h = (aps * cy * (-leak * x3 - x2) - bb * ydd) * inv_m
+    num = rddd + k2 * (s[5] - ydd) + k1 * (s[4] - x2) + k0 * (s[3] - x1) - lf3h
+    sg = 1.0 if num >= 0.0 else -1.0
+    arg = 1.0 - sg * x3
+    floor = arg <= SQRT_FLOOR
+    sq = math.sqrt(SQRT_FLOOR if floor else arg)
+    b = aps * inv_m * cy * prm[P_VMAX] * sq
+    u = num / b
+    umax = prm[P_UMAX]
+    if u > umax or u < -umax:
+        grad[0] = 0.0
+        grad[1] = 0.0
+        grad[2] = 0.0
+        return umax if u > 0.0 else -umax
+    dydd1 = -bb * inv_m
+    dydd2 = aps * inv_m
+    dlf0 = aps * dcy * (-leak * x3 - x2) * inv_m
+    dlf1 = (-aps * cy - bb * dydd1) * inv_m
+    dlf2 = (-aps * cy * leak - bb * dydd2) * inv_m
+    db0 = b * dcy / cy
+    db2 = 0.0 if floor else -b * sg / (2.0 * arg)
+    grad[0] = (-k0 - dlf0 - u * db0) / b
+    grad[1] = (-k1 - k2 * dydd1 - dlf1) / b
+    grad[2] = (-k2 * dydd2 - dlf2 - u * db2) / b
+    return u
+
+
+@jit
+def deriv(s, q_com, f_in, prm, d):
+    """``d = ds/dt`` (6,) of the closed loop with input fault ``f_in`` (valve units)."""
+    grad = np.empty(3)
+    u = ndi(s, q_com, prm, grad)
+    ut = u + f_in
+    sg = 1.0 if ut >= 0.0 else -1.0
+    arg = 1.0 - sg * s[2]
+    flow = prm[P_VMAX] * (math.sqrt(arg) if arg > 0.0 else 0.0) * ut
+    cx, _dc = chamber(s[0], prm)
+    d[0] = s[1]
+    d[1] = (prm[P_APS] * s[2] - prm[P_BB] * s[1]) * prm[P_INV_M]
+    d[2] = cx * (flow - prm[P_LEAK] * s[2] - s[1])
+    d[3] = s[4]
+    d[4] = s[5]
+    d[5] = reference_jerk(s, q_com, prm)
+
+
+@jit
+def jacobian(s, q_com, f_in, prm, A, G):
+    """``A = dx_dot/dx`` (3, 3) of the closed loop and ``G = dx_dot/df^i`` (3,) at ``s``."""
+    grad = np.empty(3)
+    u = ndi(s, q_com, prm, grad)
+    ut = u + f_in
+    sg = 1.0 if ut >= 0.0 else -1.0
+    x2 = s[1]
+    x3 = s[2]
+    arg = 1.0 - sg * x3
+    sq = math.sqrt(arg) if arg > 0.0 else 0.0
+    dsq = -sg / (2.0 * sq) if sq > 0.0 else 0.0
+    cx, dcx = chamber(s[0], prm)
+    vmax = prm[P_VMAX]
+    leak = prm[P_LEAK]
+    for i in range(3):
+        for j in range(3):
+            A[i, j] = 0.0
+    A[0, 1] = 1.0
+    A[1, 1] = -prm[P_BB] * prm[P_INV_M]
+    A[1, 2] = prm[P_APS] * prm[P_INV_M]
+    A[2, 0] = dcx * (vmax * sq * ut - leak * x3 - x2) + cx * vmax * sq * grad[0]
+    A[2, 1] = cx * (vmax * sq * grad[1] - 1.0)
+    A[2, 2] = cx * (vmax * (dsq * ut + sq * grad[2]) - leak)
+    G[0] = 0.0
+    G[1] = 0.0
+    G[2] = cx * vmax * sq
+
+
+@jit
+def _mm(A, B, C):
+    """``C = A B`` for small square matrices (loops: a BLAS call costs more than a 4x4 product;
+    ``C`` must not be ``A`` or ``B``)."""
+    n = A.shape[0]
+    for i in range(n):
+        for j in range(n):
+            acc = 0.0
+            for k in range(n):
+                acc += A[i, k] * B[k, j]
+            C[i, j] = acc
+
+
+@jit
+def expm_aug(A, G, h, Phi, Gam):
+    """``exp([[A, G], [0, 0]] h) = [[Phi, Gamma], [0, 1]]`` by scaling and squaring.
+
+    ``Phi = exp(A h)`` (3, 3) and ``Gamma = int_0^h exp(A t) dt G`` (3,): Taylor series of
+    order :data:`TAYLOR_ORDER` of the augmented matrix scaled to 1-norm <= 1/2, then squared.
+    """
+    n = 4
+    M = np.zeros((n, n))
+    for i in range(3):
+        for j in range(3):
+            M[i, j] = A[i, j] * h
+        M[i, 3] = G[i] * h
+    norm = 0.0
+    for j in range(n):
+        col = 0.0
+        for i in range(n):
+            col += abs(M[i, j])
+        norm = max(norm, col)
+    sq = 0
+    while norm > 0.5 and sq < MAX_SQUARINGS:
+        norm *= 0.5
+        sq += 1
+    scale = 0.5 ** sq
+    for i in range(n):
+        for j in range(n):
+            M[i, j] *= scale
+    E = np.eye(n)
+    T = np.eye(n)
+    W = np.empty((n, n))
+    for k in range(1, TAYLOR_ORDER + 1):
+        _mm(T, M, W)
+        inv_k = 1.0 / k
+        for i in range(n):
+            for j in range(n):
+                T[i, j] = W[i, j] * inv_k
+                E[i, j] += T[i, j]
+    for _ in range(sq):
+        _mm(E, E, W)
+        E[:, :] = W
+    for i in range(3):
+        for j in range(3):
+            Phi[i, j] = E[i, j]
+        Gam[i] = E[i, 3]
+
+
+@jit
+def _rk4(s, qa, qm, qb, f_in, h, prm, k1, k2, k3, k4, t):
+    """One RK4 step of :func:`deriv` in place on ``s`` (command qa, qm, qb at 0, h/2, h)."""
+    deriv(s, qa, f_in, prm, k1)
+    for i in range(N_S):
+        t[i] = s[i] + 0.5 * h * k1[i]
+    deriv(t, qm, f_in, prm, k2)
+    for i in range(N_S):
+        t[i] = s[i] + 0.5 * h * k2[i]
+    deriv(t, qm, f_in, prm, k3)
+    for i in range(N_S):
+        t[i] = s[i] + h * k3[i]
+    deriv(t, qb, f_in, prm, k4)
+    for i in range(N_S):
+        s[i] = s[i] + h / 6.0 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
+
+
+@jit
+def propagate(s, qc0, qc1, f_in, dt, n_sub, prm, jac, q_valve, q_state, Phi, Gam, Qd):
+    """RK4 of the closed loop over ``dt`` in ``n_sub`` substeps, in place on ``s`` (6,).
+
+    The rod command runs linearly from ``qc0`` to ``qc1`` over the interval; ``f_in`` is held.
+    With ``jac`` set, also (at each substep's starting state, substep length h)
+    ``Phi <- Phi_i Phi``, ``Gamma <- Phi_i Gamma + Gamma_i`` (:func:`expm_aug`) and
+    ``Q_d <- Phi_i Q_d Phi_i^T + (G q_valve G^T + diag(q_state)) h`` (symmetrised):
+    the transition (Lu2017 eq. 19), the fault input matrix (eq. 20, the integrand
+    ``exp(A t)``) and the discrete process noise of a valve-command noise of PSD ``q_valve``
+    and state noises of PSD ``q_state`` (3,) (eq. 39, ``Q_k^d``).
+    """
+    h = dt / n_sub
+    k1 = np.empty(N_S)
+    k2 = np.empty(N_S)
+    k3 = np.empty(N_S)
+    k4 = np.empty(N_S)
+    t = np.empty(N_S)
+    A = np.empty((3, 3))
+    G = np.empty(3)
+    Pi = np.empty((3, 3))
+    Gi = np.empty(3)
+    W = np.empty((3, 3))
+    W2 = np.empty((3, 3))
+    if jac:
+        for i in range(3):
+            Gam[i] = 0.0
+            for j in range(3):
+                Phi[i, j] = 1.0 if i == j else 0.0
+                Qd[i, j] = 0.0
+    dq = qc1 - qc0
+    for k in range(n_sub):
+        t0 = k * h
+        qa = qc0 + dq * t0 / dt
+        qm = qc0 + dq * (t0 + 0.5 * h) / dt
+        qb = qc0 + dq * (t0 + h) / dt
+        if jac:
+            jacobian(s, qa, f_in, prm, A, G)
+            expm_aug(A, G, h, Pi, Gi)
+            _mm(Pi, Phi, W)
+            Phi[:, :] = W
+            for i in range(3):
+                acc = Gi[i]
+                for j in range(3):
+                    acc += Pi[i, j] * Gam[j]
+                W[i, 0] = acc
+            for i in range(3):
+                Gam[i] = W[i, 0]
+            _mm(Pi, Qd, W)  # Pi Qd Pi^T
+            for i in range(3):
+                for j in range(3):
+                    acc = 0.0
+                    for m in range(3):
+                        acc += W[i, m] * Pi[j, m]
+                    W2[i, j] = acc + G[i] * G[j] * q_valve * h
+                W2[i, i] += q_state[i] * h
+            Qd[:, :] = W2
+        _rk4(s, qa, qm, qb, f_in, h, prm, k1, k2, k3, k4, t)
+    if jac:
+        for i in range(3):
+            for j in range(i + 1, 3):
+                v = 0.5 * (Qd[i, j] + Qd[j, i])
+                Qd[i, j] = v
+                Qd[j, i] = v

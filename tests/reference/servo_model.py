@@ -1,0 +1,159 @@
+"""Plain-float reference of the monitor's closed-loop servo model (``models/_servo_jit.py``).
+
+The servo as the ground monitor models it (Lu2017 eqs. 4-13, relative degree 3): the hydraulic
+plant (eq. 4) driven by the NDI valve law (eq. 13) on the model's own states, tracking the
+third-order reference model driven by the rod command, with the input fault f^i added to the
+saturated valve command. State ``s = [x1, x2, x3, r, r', r'']``.
+
+:func:`deriv` is the derivative, :func:`jacobian` its analytic Jacobian with respect to the
+plant states (the closed loop: the NDI law depends on them) and the input fault,
+:func:`propagate` the RK4 integration over one sample interval with the transition matrix
+``Phi``, the fault input matrix ``Gamma`` and the discrete process noise ``Q_d`` accumulated
+over the substeps (scipy's ``expm`` here; scaling and squaring in the kernel).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.linalg import expm
+
+from gcs_monitor.models.servo import ServoLoopParams, ServoParams
+
+SQRT_FLOOR = 1.0e-6  # the NDI law's floor under sqrt(1 - sign x3), as the simulator's servo
+
+
+class Consts:
+    """The constants of eqs. 4 and 13 and of the reference model."""
+
+    def __init__(self, p: ServoParams, lp: ServoLoopParams, stroke_m: float) -> None:
+        a = p.piston_area_m2
+        vm = p.mean_chamber_volume_m3
+        self.aps = a * p.supply_pressure_pa
+        self.bb = p.damping_nspm
+        self.inv_m = 1.0 / p.moving_mass_kg
+        self.vmax = p.max_valve_flow_m3ps / a
+        self.leak = p.leakage_mps
+        self.cnum = 2.0 * a * p.bulk_modulus_pa * vm / p.supply_pressure_pa
+        self.vm2 = vm * vm
+        self.a2 = a * a
+        w = lp.ref_bandwidth_radps
+        z2 = 2.0 * lp.ref_damping + 1.0
+        self.w3, self.z2w2, self.z2w = w ** 3, z2 * w * w, z2 * w
+        lam = lp.ndi_pole_radps
+        self.k2, self.k1, self.k0 = 3.0 * lam, 3.0 * lam * lam, lam ** 3
+        self.umax = lp.max_valve_cmd
+        self.stroke = stroke_m
+
+
+def chamber(c: Consts, x1: float) -> tuple[float, float]:
+    """Chamber gain ``c(x1)`` and ``dc/dx1``, x1 clamped to the stroke."""
+    if x1 > c.stroke:
+        x1, inside = c.stroke, False
+    elif x1 < -c.stroke:
+        x1, inside = -c.stroke, False
+    else:
+        inside = True
+    den = c.vm2 - c.a2 * x1 * x1
+    g = c.cnum / den
+    return g, (g * 2.0 * c.a2 * x1 / den if inside else 0.0)
+
+
+def ndi(c: Consts, s: list[float], q_com: float) -> tuple[float, list[float]]:
+    """Saturated NDI valve command and its gradient with respect to (x1, x2, x3)."""
+    x1, x2, x3, r, rd, rdd = s
+    rddd = c.w3 * (q_com - r) - c.z2w2 * rd - c.z2w * rdd
+    cy, dcy = chamber(c, x1)
+    ydd = (c.aps * x3 - c.bb * x2) * c.inv_m
+    lf3h = (c.aps * cy * (-c.leak * x3 - x2) - c.bb * ydd) * c.inv_m
+    num = rddd + c.k2 * (rdd - ydd) + c.k1 * (rd - x2) + c.k0 * (r - x1) - lf3h
+    sg = 1.0 if num >= 0.0 else -1.0
+    arg = 1.0 - sg * x3
+    floor = arg <= SQRT_FLOOR
+    sq = math.sqrt(SQRT_FLOOR if floor else arg)
+    b = c.aps * c.inv_m * cy * c.vmax * sq
+    u = num / b
+    if u > c.umax or u < -c.umax:
+        return (c.umax if u > 0.0 else -c.umax), [0.0, 0.0, 0.0]
+    dydd = [0.0, -c.bb * c.inv_m, c.aps * c.inv_m]
+    dlf = [c.aps * dcy * (-c.leak * x3 - x2) * c.inv_m,
+           (-c.aps * cy - c.bb * dydd[1]) * c.inv_m,
+           (-c.aps * cy * c.leak - c.bb * dydd[2]) * c.inv_m]
+    dnum = [-c.k0 - dlf[0], -c.k1 - c.k2 * dydd[1] - dlf[1], -c.k2 * dydd[2] - dlf[2]]
+    db = [b * dcy / cy, 0.0, 0.0 if floor else -b * sg / (2.0 * arg)]
+    return u, [(dn - u * dbi) / b for dn, dbi in zip(dnum, db, strict=True)]
+
+
+def deriv(c: Consts, s: list[float], q_com: float, f_in: float) -> list[float]:
+    """``ds/dt`` of the closed loop with input fault ``f_in`` (valve units)."""
+    x1, x2, x3, r, rd, rdd = s
+    u, _ = ndi(c, s, q_com)
+    ut = u + f_in
+    sg = 1.0 if ut >= 0.0 else -1.0
+    arg = 1.0 - sg * x3
+    flow = c.vmax * (math.sqrt(arg) if arg > 0.0 else 0.0) * ut
+    cx, _ = chamber(c, x1)
+    rddd = c.w3 * (q_com - r) - c.z2w2 * rd - c.z2w * rdd
+    return [x2, (c.aps * x3 - c.bb * x2) * c.inv_m, cx * (flow - c.leak * x3 - x2), rd, rdd, rddd]
+
+
+def jacobian(c: Consts, s: list[float], q_com: float, f_in: float) -> tuple[np.ndarray,
+                                                                          np.ndarray]:
+    """``A = d(x_dot)/dx`` (3, 3) of the closed loop and ``G = d(x_dot)/df^i`` (3,)."""
+    x1, x2, x3 = s[0], s[1], s[2]
+    u, du = ndi(c, s, q_com)
+    ut = u + f_in
+    sg = 1.0 if ut >= 0.0 else -1.0
+    arg = 1.0 - sg * x3
+    sq = math.sqrt(arg) if arg > 0.0 else 0.0
+    dsq = -sg / (2.0 * sq) if sq > 0.0 else 0.0
+    cx, dcx = chamber(c, x1)
+    A = np.zeros((3, 3))
+    A[0, 1] = 1.0
+    A[1, 1] = -c.bb * c.inv_m
+    A[1, 2] = c.aps * c.inv_m
+    A[2, 0] = dcx * (c.vmax * sq * ut - c.leak * x3 - x2) + cx * c.vmax * sq * du[0]
+    A[2, 1] = cx * (c.vmax * sq * du[1] - 1.0)
+    A[2, 2] = cx * (c.vmax * (dsq * ut + sq * du[2]) - c.leak)
+    G = np.array([0.0, 0.0, cx * c.vmax * sq])
+    return A, G
+
+
+def propagate(c: Consts, s0: list[float], qc0: float, qc1: float, f_in: float, dt: float,
+              n_sub: int, q_valve: float, q_state: tuple[float, float, float]
+              ) -> tuple[list[float], np.ndarray, np.ndarray, np.ndarray]:
+    """RK4 over ``dt`` in ``n_sub`` substeps, the command linear from qc0 to qc1.
+
+    Returns the state at the end, ``Phi`` (3, 3), ``Gamma`` (3,) (the response to a constant
+    input fault over the interval) and ``Q_d`` (3, 3): per substep of length h,
+    ``exp([[A, G], [0, 0]] h) = [[Phi_i, Gamma_i], [0, 1]]`` at the substep's starting state,
+    ``Phi = Phi_n ... Phi_1``, ``Gamma <- Phi_i Gamma + Gamma_i``,
+    ``Q_d <- Phi_i Q_d Phi_i^T + (G q_valve G^T + diag(q_state)) h``.
+    """
+    h = dt / n_sub
+    s = list(s0)
+    Phi = np.eye(3)
+    Gam = np.zeros(3)
+    Qd = np.zeros((3, 3))
+    for i in range(n_sub):
+        t0 = i * h
+        qa = qc0 + (qc1 - qc0) * t0 / dt
+        qm = qc0 + (qc1 - qc0) * (t0 + 0.5 * h) / dt
+        qb = qc0 + (qc1 - qc0) * (t0 + h) / dt
+        A, G = jacobian(c, s, qa, f_in)
+        M = np.zeros((4, 4))
+        M[:3, :3] = A
+        M[:3, 3] = G
+        E = expm(M * h)
+        Pi, Gi = E[:3, :3], E[:3, 3]
+        Phi = Pi @ Phi
+        Gam = Pi @ Gam + Gi
+        Qd = Pi @ Qd @ Pi.T + (np.outer(G, G) * q_valve + np.diag(q_state)) * h
+        k1 = deriv(c, s, qa, f_in)
+        k2 = deriv(c, [a + 0.5 * h * b for a, b in zip(s, k1, strict=True)], qm, f_in)
+        k3 = deriv(c, [a + 0.5 * h * b for a, b in zip(s, k2, strict=True)], qm, f_in)
+        k4 = deriv(c, [a + h * b for a, b in zip(s, k3, strict=True)], qb, f_in)
+        s = [a + h / 6.0 * (p + 2.0 * (q + r) + w)
+             for a, p, q, r, w in zip(s, k1, k2, k3, k4, strict=True)]
+    return s, Phi, Gam, 0.5 * (Qd + Qd.T)
