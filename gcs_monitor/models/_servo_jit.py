@@ -4,17 +4,19 @@ The servo as a ground monitor sees it: the hydraulic plant (eq. 4) driven by the
 (eq. 13, relative degree 3, see ``models/servo.py``) on the model's own states, tracking the
 third-order reference model driven by the rod command, with the input fault ``f^i`` added to
 the saturated valve command (as the simulator's servo adds an OFC). State
-``s = [x1, x2, x3, r, r', r'']``; the filters estimate ``x = s[:3]``, the reference states
-follow from the command.
+``s = [x1, x2, x3, r, r', r'']``. The reference states are internal to the servo electronics:
+the IOTSEKF estimates them with the plant states; the RTS-EKF's nominal servo carries them.
 
 * :func:`deriv` -- ``ds/dt``;
-* :func:`jacobian` -- ``A = dx_dot/dx`` (3, 3) of the *closed* loop (the NDI law depends on x)
-  and ``G = dx_dot/df^i`` (3,);
+* :func:`jacobian` -- ``A = ds_dot/ds`` (6, 6) of the *closed* loop (the NDI law depends on
+  the plant and the reference states) and ``G = ds_dot/df^i`` (6,);
 * :func:`propagate` -- RK4 over one sample interval in substeps, the rod command linear between
   its two samples, with the transition ``Phi``, the fault input matrix ``Gamma`` and the
   discrete process noise ``Q_d`` accumulated over the substeps (:func:`expm_aug`: scaling and
   squaring of the augmented matrix ``[[A, G], [0, 0]]``; the closed loop's Jacobian has entries
-  of ~4e3 1/s, so a short series on ``A dt`` would not do).
+  of ~1e4 1/s, so a short series on ``A dt`` would not do);
+* :func:`command_timing_noise` -- the state uncertainty of a command change at an unknown
+  instant inside the interval.
 
 The chamber gain ``c(x1)`` is evaluated with x1 clamped to the rod stroke (it is singular at
 ``x1 = V_m / A_p``, far outside the stroke). The constants travel in one array built by
@@ -132,7 +134,13 @@ def deriv(s, q_com, f_in, prm, d):
 
 @jit
 def jacobian(s, q_com, f_in, prm, A, G):
-    """``A = dx_dot/dx`` (3, 3) of the closed loop and ``G = dx_dot/df^i`` (3,) at ``s``."""
+    """``A = ds_dot/ds`` (6, 6) of the closed loop (the NDI law depends on the plant states x and
+    on the reference states r) and ``G = ds_dot/df^i`` (6,) at ``s``.
+
+    The blocks: ``A[:3, :3]`` the plant with the NDI feedback, ``A[:3, 3:]`` the NDI law's
+    dependence on the reference states (its feed-forward ``r'''`` included), ``A[3:, 3:]`` the
+    reference model, ``A[3:, :3] = 0``.
+    """
     grad = np.empty(3)
     u = ndi(s, q_com, prm, grad)
     ut = u + f_in
@@ -145,18 +153,47 @@ def jacobian(s, q_com, f_in, prm, A, G):
     cx, dcx = chamber(s[0], prm)
     vmax = prm[P_VMAX]
     leak = prm[P_LEAK]
-    for i in range(3):
-        for j in range(3):
+    for i in range(6):
+        for j in range(6):
             A[i, j] = 0.0
+        G[i] = 0.0
     A[0, 1] = 1.0
     A[1, 1] = -prm[P_BB] * prm[P_INV_M]
     A[1, 2] = prm[P_APS] * prm[P_INV_M]
     A[2, 0] = dcx * (vmax * sq * ut - leak * x3 - x2) + cx * vmax * sq * grad[0]
     A[2, 1] = cx * (vmax * sq * grad[1] - 1.0)
     A[2, 2] = cx * (vmax * (dsq * ut + sq * grad[2]) - leak)
-    G[0] = 0.0
-    G[1] = 0.0
+    if grad[0] != 0.0 or grad[1] != 0.0 or grad[2] != 0.0:  # unsaturated: u depends on r
+        # d num / d(r, r', r'') with r''' = w^3 (q - r) - z2 w^2 r' - z2 w r'' fed forward
+        k = cx * vmax * sq * _inv_b(s, q_com, prm)
+        A[2, 3] = k * (prm[P_K0] - prm[P_W3])
+        A[2, 4] = k * (prm[P_K1] - prm[P_Z2W2])
+        A[2, 5] = k * (prm[P_K2] - prm[P_Z2W])
+    A[3, 4] = 1.0
+    A[4, 5] = 1.0
+    A[5, 3] = -prm[P_W3]
+    A[5, 4] = -prm[P_Z2W2]
+    A[5, 5] = -prm[P_Z2W]
     G[2] = cx * vmax * sq
+
+
+@jit
+def _inv_b(s, q_com, prm):
+    """``1 / (L_g L_f^2 h)`` of the NDI law at ``s`` (its sign branch included)."""
+    x1 = s[0]
+    x2 = s[1]
+    x3 = s[2]
+    aps = prm[P_APS]
+    inv_m = prm[P_INV_M]
+    cy, _dcy = chamber(x1, prm)
+    ydd = (aps * x3 - prm[P_BB] * x2) * inv_m
+    lf3h = (aps * cy * (-prm[P_LEAK] * x3 - x2) - prm[P_BB] * ydd) * inv_m
+    num = (reference_jerk(s, q_com, prm) + prm[P_K2] * (s[5] - ydd) + prm[P_K1] * (s[4] - x2)
+           + prm[P_K0] * (s[3] - x1) - lf3h)
+    sg = 1.0 if num >= 0.0 else -1.0
+    arg = 1.0 - sg * x3
+    sqr = math.sqrt(SQRT_FLOOR if arg <= SQRT_FLOOR else arg)
+    return 1.0 / (aps * inv_m * cy * prm[P_VMAX] * sqr)
 
 
 @jit
@@ -176,15 +213,16 @@ def _mm(A, B, C):
 def expm_aug(A, G, h, Phi, Gam):
     """``exp([[A, G], [0, 0]] h) = [[Phi, Gamma], [0, 1]]`` by scaling and squaring.
 
-    ``Phi = exp(A h)`` (3, 3) and ``Gamma = int_0^h exp(A t) dt G`` (3,): Taylor series of
+    ``Phi = exp(A h)`` (n, n) and ``Gamma = int_0^h exp(A t) dt G`` (n,): Taylor series of
     order :data:`TAYLOR_ORDER` of the augmented matrix scaled to 1-norm <= 1/2, then squared.
     """
-    n = 4
+    nx = A.shape[0]
+    n = nx + 1
     M = np.zeros((n, n))
-    for i in range(3):
-        for j in range(3):
+    for i in range(nx):
+        for j in range(nx):
             M[i, j] = A[i, j] * h
-        M[i, 3] = G[i] * h
+        M[i, nx] = G[i] * h
     norm = 0.0
     for j in range(n):
         col = 0.0
@@ -212,10 +250,10 @@ def expm_aug(A, G, h, Phi, Gam):
     for _ in range(sq):
         _mm(E, E, W)
         E[:, :] = W
-    for i in range(3):
-        for j in range(3):
+    for i in range(nx):
+        for j in range(nx):
             Phi[i, j] = E[i, j]
-        Gam[i] = E[i, 3]
+        Gam[i] = E[i, nx]
 
 
 @jit
@@ -236,16 +274,30 @@ def _rk4(s, qa, qm, qb, f_in, h, prm, k1, k2, k3, k4, t):
 
 
 @jit
-def propagate(s, qc0, qc1, f_in, dt, n_sub, prm, jac, q_valve, q_state, Phi, Gam, Qd):
+def command_at(qc0, qc1, t, t_knee):
+    """The rod command ``t`` into an interval: linear from ``qc0`` to ``qc1`` until ``t_knee``,
+    ``qc1`` after it (a reported command took effect before its sample instant)."""
+    if t >= t_knee:
+        return qc1
+    return qc0 + (qc1 - qc0) * t / t_knee
+
+
+@jit
+def propagate(s, qc0, qc1, f_in, dt, t_knee, n_sub, prm, jac, q_valve, q_state, Phi, Gam,
+              Qd):
     """RK4 of the closed loop over ``dt`` in ``n_sub`` substeps, in place on ``s`` (6,).
 
-    The rod command runs linearly from ``qc0`` to ``qc1`` over the interval; ``f_in`` is held.
+    The rod command runs linearly from ``qc0`` to ``qc1`` until ``t_knee`` into the interval
+    and is held at ``qc1`` after it (``t_knee = dt``: linear over the whole interval; see
+    :func:`command_at`); ``f_in`` is held.
     With ``jac`` set, also (at each substep's starting state, substep length h)
     ``Phi <- Phi_i Phi``, ``Gamma <- Phi_i Gamma + Gamma_i`` (:func:`expm_aug`) and
-    ``Q_d <- Phi_i Q_d Phi_i^T + (G q_valve G^T + diag(q_state)) h`` (symmetrised):
-    the transition (Lu2017 eq. 19), the fault input matrix (eq. 20, the integrand
-    ``exp(A t)``) and the discrete process noise of a valve-command noise of PSD ``q_valve``
-    and state noises of PSD ``q_state`` (3,) (eq. 39, ``Q_k^d``).
+    ``Q_d <- Phi_i Q_d Phi_i^T + (G q_valve G^T + diag(q_state)) h`` (symmetrised), (6, 6) and
+    (6,) over plant and reference states: the transition (Lu2017 eq. 19), the fault input
+    matrix (eq. 20, the integrand ``exp(A t)``) and the discrete process noise of a
+    valve-command noise of PSD ``q_valve`` and state noises of PSDs ``q_state`` (6,) (eq. 39,
+    ``Q_k^d``). ``A`` is block upper triangular, so the plant block ``[:3, :3]`` is the
+    transition of the plant states alone with the reference states given.
     """
     h = dt / n_sub
     k1 = np.empty(N_S)
@@ -253,49 +305,73 @@ def propagate(s, qc0, qc1, f_in, dt, n_sub, prm, jac, q_valve, q_state, Phi, Gam
     k3 = np.empty(N_S)
     k4 = np.empty(N_S)
     t = np.empty(N_S)
-    A = np.empty((3, 3))
-    G = np.empty(3)
-    Pi = np.empty((3, 3))
-    Gi = np.empty(3)
-    W = np.empty((3, 3))
-    W2 = np.empty((3, 3))
+    A = np.empty((N_S, N_S))
+    G = np.empty(N_S)
+    Pi = np.empty((N_S, N_S))
+    Gi = np.empty(N_S)
+    W = np.empty((N_S, N_S))
+    W2 = np.empty((N_S, N_S))
     if jac:
-        for i in range(3):
+        for i in range(N_S):
             Gam[i] = 0.0
-            for j in range(3):
+            for j in range(N_S):
                 Phi[i, j] = 1.0 if i == j else 0.0
                 Qd[i, j] = 0.0
-    dq = qc1 - qc0
     for k in range(n_sub):
         t0 = k * h
-        qa = qc0 + dq * t0 / dt
-        qm = qc0 + dq * (t0 + 0.5 * h) / dt
-        qb = qc0 + dq * (t0 + h) / dt
+        qa = command_at(qc0, qc1, t0, t_knee)
+        qm = command_at(qc0, qc1, t0 + 0.5 * h, t_knee)
+        qb = command_at(qc0, qc1, t0 + h, t_knee)
         if jac:
             jacobian(s, qa, f_in, prm, A, G)
             expm_aug(A, G, h, Pi, Gi)
             _mm(Pi, Phi, W)
             Phi[:, :] = W
-            for i in range(3):
+            for i in range(N_S):
                 acc = Gi[i]
-                for j in range(3):
+                for j in range(N_S):
                     acc += Pi[i, j] * Gam[j]
                 W[i, 0] = acc
-            for i in range(3):
+            for i in range(N_S):
                 Gam[i] = W[i, 0]
             _mm(Pi, Qd, W)  # Pi Qd Pi^T
-            for i in range(3):
-                for j in range(3):
+            for i in range(N_S):
+                for j in range(N_S):
                     acc = 0.0
-                    for m in range(3):
+                    for m in range(N_S):
                         acc += W[i, m] * Pi[j, m]
                     W2[i, j] = acc + G[i] * G[j] * q_valve * h
                 W2[i, i] += q_state[i] * h
             Qd[:, :] = W2
         _rk4(s, qa, qm, qb, f_in, h, prm, k1, k2, k3, k4, t)
     if jac:
-        for i in range(3):
-            for j in range(i + 1, 3):
+        for i in range(N_S):
+            for j in range(i + 1, N_S):
                 v = 0.5 * (Qd[i, j] + Qd[j, i])
                 Qd[i, j] = v
                 Qd[j, i] = v
+
+
+@jit
+def command_timing_noise(s, qc0, qc1, f_in, dt, n_sub, prm, Q):
+    """``Q += e e^T / 12`` (6, 6): the state uncertainty of a command change at an unknown
+    instant of the interval.
+
+    ``e`` is the difference between the states at the end with the command at ``qc1`` all
+    along (changed at the start) and at ``qc0`` all along (changed at the end); the model's
+    linear profile sits between, and a change instant uniform over the interval leaves an
+    error of variance ``|e|^2 / 12`` along ``e``. ``s`` (6,) is not modified.
+    """
+    if qc1 == qc0:
+        return
+    sa = s.copy()
+    sb = s.copy()
+    dummy = np.empty((N_S, N_S))
+    dg = np.empty(N_S)
+    qs = np.zeros(N_S)
+    propagate(sa, qc1, qc1, f_in, dt, dt, n_sub, prm, False, 0.0, qs, dummy, dg, dummy)
+    propagate(sb, qc0, qc0, f_in, dt, dt, n_sub, prm, False, 0.0, qs, dummy, dg, dummy)
+    for i in range(N_S):
+        ei = sa[i] - sb[i]
+        for j in range(N_S):
+            Q[i, j] += ei * (sa[j] - sb[j]) / 12.0

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gcs_monitor.core.kernels import load_kernels
+from gcs_monitor.core.params import param
 from gcs_monitor.core.types import Mat, Vec
 
 
@@ -34,14 +35,21 @@ from gcs_monitor.core.types import Mat, Vec
 class ServoParams:
     """Generic hydraulic actuator parameters (Lu2017 sec. II.A, text below eq. 6)."""
 
-    piston_area_m2: float = 0.0025  # A_p
-    damping_nspm: float = 52.3  # B
-    supply_pressure_pa: float = 1.4e7  # P_s
-    max_valve_flow_m3ps: float = 0.0025  # phi_n
-    mean_chamber_volume_m3: float = 0.001973  # V_m
-    bulk_modulus_pa: float = 1.0e9  # E
-    moving_mass_kg: float = 2000.0  # M
-    leakage_mps: float = 0.023  # L, normalised leakage parameter
+    piston_area_m2: float = param(0.0025, "piston area A_p (Lu2017 sec. II.A)", positive=True)
+    damping_nspm: float = param(52.3, "damping coefficient B (Lu2017 sec. II.A)",
+                                positive=True)
+    supply_pressure_pa: float = param(1.4e7, "reservoir oil pressure P_s (Lu2017 sec. II.A)",
+                                      positive=True)
+    max_valve_flow_m3ps: float = param(0.0025, "maximum valve flow phi_n (Lu2017 sec. II.A)",
+                                       positive=True)
+    mean_chamber_volume_m3: float = param(0.001973, "mean actuator chamber volume V_m (Lu2017 "
+                                          "sec. II.A)", positive=True)
+    bulk_modulus_pa: float = param(1.0e9, "oil bulk modulus E (Lu2017 sec. II.A)",
+                                   positive=True)
+    moving_mass_kg: float = param(2000.0, "mass of the moving system M (Lu2017 sec. II.A)",
+                                  positive=True)
+    leakage_mps: float = param(0.023, "normalised leakage parameter L (Lu2017 sec. II.A)",
+                               positive=True)
 
 
 @dataclass(frozen=True, slots=True)
@@ -53,10 +61,15 @@ class ServoLoopParams:
     tracking-error poles at ``-ndi_pole_radps``.
     """
 
-    ref_bandwidth_radps: float = 20.0
-    ref_damping: float = 0.8
-    ndi_pole_radps: float = 40.0
-    max_valve_cmd: float = 1.0  # |u| <= 1: phi_n is the *maximum* valve flow
+    ref_bandwidth_radps: float = param(20.0, "reference model bandwidth w (ours; Lu2017 sec. "
+                                       "III.B gives a third-order low-pass)", unit="si",
+                                       positive=True)
+    ref_damping: float = param(0.8, "reference model damping zeta (ours)", positive=True)
+    ndi_pole_radps: float = param(40.0, "triple pole of the NDI tracking-error dynamics "
+                                  "(ours; Lu2017 eq. 13 leaves nu to the designer)", unit="si",
+                                  positive=True)
+    max_valve_cmd: float = param(1.0, "|u| limit of the valve command: phi_n is the maximum "
+                                 "valve flow", positive=True)
 
 
 def chamber_gain(x1_m: float, p: ServoParams) -> float:
@@ -261,10 +274,11 @@ def closed_loop_derivative(s: Vec, q_com_m: float, f_in: float, prm: np.ndarray)
 
 def closed_loop_jacobian(s: Vec, q_com_m: float, f_in: float,
                          prm: np.ndarray) -> tuple[Mat, Vec]:
-    """``(A, G)``: ``A = dx_dot/dx`` (3, 3) of the closed loop (the NDI law depends on x) and
-    ``G = dx_dot/df^i`` (3,), at the arguments of :func:`closed_loop_derivative`."""
-    A = np.empty((3, 3))
-    G = np.empty(3)
+    """``(A, G)``: ``A = ds_dot/ds`` (6, 6) of the closed loop (the NDI law depends on the plant
+    and the reference states) and ``G = ds_dot/df^i`` (6,), at the arguments of
+    :func:`closed_loop_derivative`."""
+    A = np.empty((6, 6))
+    G = np.empty(6)
     load_kernels(_KERNEL).jacobian(np.asarray(s, dtype=np.float64), float(q_com_m),
                                    float(f_in), prm, A, G)
     return A, G
@@ -274,8 +288,9 @@ def closed_loop_jacobian(s: Vec, q_com_m: float, f_in: float,
 class Propagation:
     """One sample interval of the closed loop (:func:`propagate`).
 
-    s : (6,) state at the end; Phi : (3, 3) transition; Gamma : (3,) response of x to a constant
-    input fault over the interval; Qd : (3, 3) discrete process noise (Lu2017 eqs. 19-20, 39)
+    s : (6,) state at the end; Phi : (6, 6) transition; Gamma : (6,) response of the state to a
+    constant input fault over the interval; Qd : (6, 6) discrete process noise (Lu2017 eqs.
+    19-20, 39); plant and reference states
     """
 
     s: Vec
@@ -286,15 +301,29 @@ class Propagation:
 
 def propagate(s: Vec, q_com0_m: float, q_com1_m: float, f_in: float, dt_s: float, n_sub: int,
               prm: np.ndarray, *, q_valve: float = 0.0,
-              q_state: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> Propagation:
+              q_state: tuple[float, ...] = (0.0,) * 6, knee_s: float | None = None
+              ) -> Propagation:
     """RK4 of the closed loop over ``dt_s`` in ``n_sub`` substeps, the rod command linear from
-    ``q_com0_m`` to ``q_com1_m``, with Phi, Gamma and Q_d (valve-command noise of PSD
-    ``q_valve`` (s), state noises of PSDs ``q_state`` (SI^2 s)); see the kernel."""
+    ``q_com0_m`` to ``q_com1_m`` until ``knee_s`` into the interval (default: its end) and held
+    after it, with Phi, Gamma and Q_d (valve-command noise of PSD
+    ``q_valve`` (s), state noises of PSDs ``q_state`` (6,) (SI^2 s)); see the kernel."""
     out = np.array(s, dtype=np.float64)
-    Phi = np.empty((3, 3))
-    Gam = np.empty(3)
-    Qd = np.empty((3, 3))
+    Phi = np.empty((6, 6))
+    Gam = np.empty(6)
+    Qd = np.empty((6, 6))
+    knee = float(dt_s) if knee_s is None else float(knee_s)
     load_kernels(_KERNEL).propagate(out, float(q_com0_m), float(q_com1_m), float(f_in),
-                                    float(dt_s), int(n_sub), prm, True, float(q_valve),
+                                    float(dt_s), knee, int(n_sub), prm, True, float(q_valve),
                                     np.asarray(q_state, dtype=np.float64), Phi, Gam, Qd)
     return Propagation(out, Phi, Gam, Qd)
+
+
+def command_timing_noise(s: Vec, q_com0_m: float, q_com1_m: float, f_in: float, dt_s: float,
+                         n_sub: int, prm: np.ndarray) -> Mat:
+    """(6, 6) state covariance of a rod-command change at an unknown instant of the interval
+    (the kernel's ``command_timing_noise``)."""
+    Q = np.zeros((6, 6))
+    load_kernels(_KERNEL).command_timing_noise(np.array(s, dtype=np.float64), float(q_com0_m),
+                                               float(q_com1_m), float(f_in), float(dt_s),
+                                               int(n_sub), prm, Q)
+    return Q

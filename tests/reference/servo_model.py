@@ -61,7 +61,8 @@ def chamber(c: Consts, x1: float) -> tuple[float, float]:
 
 
 def ndi(c: Consts, s: list[float], q_com: float) -> tuple[float, list[float]]:
-    """Saturated NDI valve command and its gradient with respect to (x1, x2, x3)."""
+    """Saturated NDI valve command and ``[du/dx1, du/dx2, du/dx3, dnum/dr, dnum/dr', dnum/dr'',
+    1/b]`` (six zeros when saturated: u depends on no state)."""
     x1, x2, x3, r, rd, rdd = s
     rddd = c.w3 * (q_com - r) - c.z2w2 * rd - c.z2w * rdd
     cy, dcy = chamber(c, x1)
@@ -75,14 +76,17 @@ def ndi(c: Consts, s: list[float], q_com: float) -> tuple[float, list[float]]:
     b = c.aps * c.inv_m * cy * c.vmax * sq
     u = num / b
     if u > c.umax or u < -c.umax:
-        return (c.umax if u > 0.0 else -c.umax), [0.0, 0.0, 0.0]
+        return (c.umax if u > 0.0 else -c.umax), [0.0] * 6
     dydd = [0.0, -c.bb * c.inv_m, c.aps * c.inv_m]
     dlf = [c.aps * dcy * (-c.leak * x3 - x2) * c.inv_m,
            (-c.aps * cy - c.bb * dydd[1]) * c.inv_m,
            (-c.aps * cy * c.leak - c.bb * dydd[2]) * c.inv_m]
     dnum = [-c.k0 - dlf[0], -c.k1 - c.k2 * dydd[1] - dlf[1], -c.k2 * dydd[2] - dlf[2]]
     db = [b * dcy / cy, 0.0, 0.0 if floor else -b * sg / (2.0 * arg)]
-    return u, [(dn - u * dbi) / b for dn, dbi in zip(dnum, db, strict=True)]
+    dx = [(dn - u * dbi) / b for dn, dbi in zip(dnum, db, strict=True)]
+    # num = r''' + k2 r'' + k1 r' + k0 r + ... with r''' = w^3 (q - r) - z2 w^2 r' - z2 w r'';
+    # returned as d num / dr and 1 / b (the kernel's order of operations)
+    return u, dx + [c.k0 - c.w3, c.k1 - c.z2w2, c.k2 - c.z2w, 1.0 / b]
 
 
 def deriv(c: Consts, s: list[float], q_com: float, f_in: float) -> list[float]:
@@ -100,7 +104,7 @@ def deriv(c: Consts, s: list[float], q_com: float, f_in: float) -> list[float]:
 
 def jacobian(c: Consts, s: list[float], q_com: float, f_in: float) -> tuple[np.ndarray,
                                                                           np.ndarray]:
-    """``A = d(x_dot)/dx`` (3, 3) of the closed loop and ``G = d(x_dot)/df^i`` (3,)."""
+    """``A = ds_dot/ds`` (6, 6) of the closed loop and ``G = ds_dot/df^i`` (6,)."""
     x1, x2, x3 = s[0], s[1], s[2]
     u, du = ndi(c, s, q_com)
     ut = u + f_in
@@ -109,44 +113,58 @@ def jacobian(c: Consts, s: list[float], q_com: float, f_in: float) -> tuple[np.n
     sq = math.sqrt(arg) if arg > 0.0 else 0.0
     dsq = -sg / (2.0 * sq) if sq > 0.0 else 0.0
     cx, dcx = chamber(c, x1)
-    A = np.zeros((3, 3))
+    A = np.zeros((6, 6))
     A[0, 1] = 1.0
     A[1, 1] = -c.bb * c.inv_m
     A[1, 2] = c.aps * c.inv_m
     A[2, 0] = dcx * (c.vmax * sq * ut - c.leak * x3 - x2) + cx * c.vmax * sq * du[0]
     A[2, 1] = cx * (c.vmax * sq * du[1] - 1.0)
     A[2, 2] = cx * (c.vmax * (dsq * ut + sq * du[2]) - c.leak)
-    G = np.array([0.0, 0.0, cx * c.vmax * sq])
+    if len(du) > 6:  # unsaturated
+        k = cx * c.vmax * sq * du[6]
+        for j in range(3):
+            A[2, 3 + j] = k * du[3 + j]
+    A[3, 4] = 1.0
+    A[4, 5] = 1.0
+    A[5, 3:] = [-c.w3, -c.z2w2, -c.z2w]
+    G = np.array([0.0, 0.0, cx * c.vmax * sq, 0.0, 0.0, 0.0])
     return A, G
 
 
-def propagate(c: Consts, s0: list[float], qc0: float, qc1: float, f_in: float, dt: float,
-              n_sub: int, q_valve: float, q_state: tuple[float, float, float]
-              ) -> tuple[list[float], np.ndarray, np.ndarray, np.ndarray]:
-    """RK4 over ``dt`` in ``n_sub`` substeps, the command linear from qc0 to qc1.
+def command_at(qc0: float, qc1: float, t: float, t_knee: float) -> float:
+    """Linear from qc0 to qc1 until t_knee, qc1 after."""
+    return qc1 if t >= t_knee else qc0 + (qc1 - qc0) * t / t_knee
 
-    Returns the state at the end, ``Phi`` (3, 3), ``Gamma`` (3,) (the response to a constant
-    input fault over the interval) and ``Q_d`` (3, 3): per substep of length h,
+
+def propagate(c: Consts, s0: list[float], qc0: float, qc1: float, f_in: float, dt: float,
+              n_sub: int, q_valve: float, q_state: tuple[float, ...], t_knee: float | None = None
+              ) -> tuple[list[float], np.ndarray, np.ndarray, np.ndarray]:
+    """RK4 over ``dt`` in ``n_sub`` substeps, the command linear from qc0 to qc1 until
+    ``t_knee`` (default: dt), then held.
+
+    Returns the state at the end, ``Phi`` (6, 6), ``Gamma`` (6,) (the response to a constant
+    input fault over the interval) and ``Q_d`` (6, 6): per substep of length h,
     ``exp([[A, G], [0, 0]] h) = [[Phi_i, Gamma_i], [0, 1]]`` at the substep's starting state,
     ``Phi = Phi_n ... Phi_1``, ``Gamma <- Phi_i Gamma + Gamma_i``,
     ``Q_d <- Phi_i Q_d Phi_i^T + (G q_valve G^T + diag(q_state)) h``.
     """
     h = dt / n_sub
     s = list(s0)
-    Phi = np.eye(3)
-    Gam = np.zeros(3)
-    Qd = np.zeros((3, 3))
+    Phi = np.eye(6)
+    Gam = np.zeros(6)
+    Qd = np.zeros((6, 6))
     for i in range(n_sub):
         t0 = i * h
-        qa = qc0 + (qc1 - qc0) * t0 / dt
-        qm = qc0 + (qc1 - qc0) * (t0 + 0.5 * h) / dt
-        qb = qc0 + (qc1 - qc0) * (t0 + h) / dt
+        tk = dt if t_knee is None else t_knee
+        qa = command_at(qc0, qc1, t0, tk)
+        qm = command_at(qc0, qc1, t0 + 0.5 * h, tk)
+        qb = command_at(qc0, qc1, t0 + h, tk)
         A, G = jacobian(c, s, qa, f_in)
-        M = np.zeros((4, 4))
-        M[:3, :3] = A
-        M[:3, 3] = G
+        M = np.zeros((7, 7))
+        M[:6, :6] = A
+        M[:6, 6] = G
         E = expm(M * h)
-        Pi, Gi = E[:3, :3], E[:3, 3]
+        Pi, Gi = E[:6, :6], E[:6, 6]
         Phi = Pi @ Phi
         Gam = Pi @ Gam + Gi
         Qd = Pi @ Qd @ Pi.T + (np.outer(G, G) * q_valve + np.diag(q_state)) * h
@@ -157,3 +175,16 @@ def propagate(c: Consts, s0: list[float], qc0: float, qc1: float, f_in: float, d
         s = [a + h / 6.0 * (p + 2.0 * (q + r) + w)
              for a, p, q, r, w in zip(s, k1, k2, k3, k4, strict=True)]
     return s, Phi, Gam, 0.5 * (Qd + Qd.T)
+
+
+def command_timing_noise(c: Consts, s: list[float], qc0: float, qc1: float, f_in: float,
+                         dt: float, n_sub: int) -> np.ndarray:
+    """``e e^T / 12`` with ``e`` the end-state difference between the command at qc1 and at
+    qc0 all along the interval."""
+    if qc1 == qc0:
+        return np.zeros((6, 6))
+    z = (0.0,) * 6
+    sa = np.array(propagate(c, s, qc1, qc1, f_in, dt, n_sub, 0.0, z)[0])
+    sb = np.array(propagate(c, s, qc0, qc0, f_in, dt, n_sub, 0.0, z)[0])
+    e = sa - sb
+    return np.outer(e, e) / 12.0

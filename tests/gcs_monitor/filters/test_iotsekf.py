@@ -20,10 +20,11 @@ def _spd(rng: np.random.Generator, n: int, scale: float = 1.0) -> np.ndarray:
 
 
 def _linearised_servo(dt: float = 0.02) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Phi, Gamma (3, 1), Q_d of the closed servo loop at rest over one 50 Hz sample."""
+    """Phi, Gamma (6, 1), Q_d of the closed servo loop (plant and reference states) at rest
+    over one 50 Hz sample."""
     prm = pack_params(ServoParams(), ServoLoopParams(), 0.35)
     pr = propagate(np.zeros(6), 0.0, 0.0, 0.0, dt, 4, prm, q_valve=1e-6)
-    return pr.Phi, pr.Gamma.reshape(3, 1), pr.Qd
+    return pr.Phi, pr.Gamma.reshape(6, 1), pr.Qd
 
 
 def test_kernel_equals_printed_equations_with_iteration() -> None:
@@ -55,11 +56,11 @@ def test_equals_augmented_kf_on_the_linearised_servo() -> None:
     give the same estimates to round-off (1e-9 relative; a missing coupling term shows at 1e-2)
     and the fault estimate follows the sinusoid."""
     Phi, Gam, Qd = _linearised_servo()
-    n, b = 3, 1
-    H = np.array([[1.0, 0.0, 0.0]])
+    n, b = 6, 1
+    H = np.array([[1.0, 0.0, 0.0, 0.0, 0.0, 0.0]])
     R = np.array([[1e-8]])
     Qf = np.array([[(1.0 * 0.02) ** 2]])
-    P0 = np.diag([1e-8, 1e-4, 1e-4])
+    P0 = np.diag([1e-8, 1e-4, 1e-4, 1e-8, 1e-6, 1e-6])
     Pf0 = np.array([[0.01]])
     s = iotsekf_init(np.zeros(n), P0, np.zeros(b), Pf0, Qf, m=1)
     Aa = np.block([[Phi, Gam], [np.zeros((b, n)), np.eye(b)]])

@@ -67,7 +67,7 @@ def test_m_equals_p_is_an_open_loop_prediction_on_the_servo() -> None:
         pr = propagate(np.concatenate([st_.x, s6[3:]]), q, q, 0.0, 0.02, 4, prm,
                        q_valve=1e-4)
         s6 = pr.s
-        P_pred = three_step_predict(st_.P, pr.Phi, pr.Qd)
+        P_pred = three_step_predict(st_.P, pr.Phi[:3, :3], pr.Qd[:3, :3])
         y = np.array([s6[0] + 1e-3, s6[0] - 2e-3]) + rng.normal(size=2) * 1e-4
         new, innov = three_step_update(s6[:3], P_pred, y, H @ s6[:3], H, np.eye(2), R)
         assert new is not None

@@ -15,6 +15,7 @@ from gcs_monitor.models.servo import (
     ServoParams,
     closed_loop_derivative,
     closed_loop_jacobian,
+    command_timing_noise,
     ndi_control,
     pack_params,
     propagate,
@@ -49,30 +50,32 @@ def _random_states(seed: int, n: int) -> list[tuple[np.ndarray, float, float]]:
 def test_jacobian_matches_central_differences(case: int) -> None:
     s, q, f = _random_states(7, 8)[case]
     A, G = closed_loop_jacobian(s, q, f, PRM)
-    steps = (1e-7, 1e-6, 1e-7)  # m, m/s, - : ~1e-6 of each state's range
+    steps = (1e-7, 1e-6, 1e-7, 1e-7, 1e-6, 1e-5)  # ~1e-6 of each state's range
     for j, h in enumerate(steps):
         sp, sm = s.copy(), s.copy()
         sp[j] += h
         sm[j] -= h
         col = (closed_loop_derivative(sp, q, f, PRM) - closed_loop_derivative(sm, q, f, PRM))
         # rtol 1e-6: central differences of a smooth function at h ~ 1e-7 of the state scale
-        np.testing.assert_allclose(A[:, j], col[:3] / (2 * h), rtol=1e-6, atol=1e-6)
+        np.testing.assert_allclose(A[:, j], col / (2 * h), rtol=1e-6, atol=1e-6)
     dg = (closed_loop_derivative(s, q, f + 1e-7, PRM)
-          - closed_loop_derivative(s, q, f - 1e-7, PRM))[:3] / 2e-7
+          - closed_loop_derivative(s, q, f - 1e-7, PRM)) / 2e-7
     np.testing.assert_allclose(G, dg, rtol=1e-6, atol=1e-6)
 
 
 def test_jacobian_of_the_saturated_loop_is_the_open_plant() -> None:
-    """With the valve saturated the NDI law no longer depends on x: A is the plant's Jacobian
-    at constant u (Lu2017 eq. 4)."""
+    """With the valve saturated the NDI law depends neither on x nor on the reference states: A
+    is the plant's Jacobian at constant u (Lu2017 eq. 4) beside the reference model's."""
     s = np.array([0.0, 0.0, 0.0, 0.05, 0.0, 0.0])  # 5 cm step: u_NDI saturates at +1
     A, G = closed_loop_jacobian(s, 0.05, 0.0, PRM)
     c = C.cnum / C.vm2
-    expected = np.array([[0.0, 1.0, 0.0],
-                         [0.0, -C.bb * C.inv_m, C.aps * C.inv_m],
-                         [0.0, -c, c * (C.vmax * (-1.0 / 2.0) * 1.0 - C.leak)]])
+    expected = np.zeros((6, 6))
+    expected[:3, :3] = [[0.0, 1.0, 0.0],
+                        [0.0, -C.bb * C.inv_m, C.aps * C.inv_m],
+                        [0.0, -c, c * (C.vmax * (-1.0 / 2.0) * 1.0 - C.leak)]]
+    expected[3:, 3:] = [[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [-C.w3, -C.z2w2, -C.z2w]]
     np.testing.assert_allclose(A, expected, rtol=1e-14)
-    np.testing.assert_allclose(G, [0.0, 0.0, c * C.vmax], rtol=1e-14)
+    np.testing.assert_allclose(G, [0.0, 0.0, c * C.vmax, 0.0, 0.0, 0.0], rtol=1e-14)
 
 
 def test_kernel_equals_reference() -> None:
@@ -86,13 +89,16 @@ def test_kernel_equals_reference() -> None:
         Ar, Gr = ref.jacobian(C, list(s), q, f)
         np.testing.assert_array_equal(A, Ar)
         np.testing.assert_array_equal(G, Gr)
-        pr = propagate(s, q, q + 0.003, f, 0.02, 4, PRM, q_valve=1e-4, q_state=(1e-10, 1e-8, 1e-8))
-        sr, Phr, Gmr, Qr = ref.propagate(C, list(s), q, q + 0.003, f, 0.02, 4, 1e-4,
-                                         (1e-10, 1e-8, 1e-8))
+        qs = (1e-10, 1e-8, 1e-8, 0.0, 0.0, 0.0)
+        pr = propagate(s, q, q + 0.003, f, 0.02, 4, PRM, q_valve=1e-4, q_state=qs)
+        sr, Phr, Gmr, Qr = ref.propagate(C, list(s), q, q + 0.003, f, 0.02, 4, 1e-4, qs)
         np.testing.assert_array_equal(pr.s, sr)
         np.testing.assert_allclose(pr.Phi, Phr, rtol=1e-11, atol=1e-11 * np.abs(Phr).max())
         np.testing.assert_allclose(pr.Gamma, Gmr, rtol=1e-11, atol=1e-11 * np.abs(Gmr).max())
         np.testing.assert_allclose(pr.Qd, Qr, rtol=1e-11, atol=1e-11 * np.abs(Qr).max())
+        Qt = command_timing_noise(s, q, q + 0.003, f, 0.02, 4, PRM)
+        np.testing.assert_allclose(Qt, ref.command_timing_noise(C, list(s), q, q + 0.003, f,
+                                                                0.02, 4), rtol=1e-12, atol=0)
 
 
 def _sensitivity_errors(n_sub: int) -> tuple[float, float]:
@@ -101,16 +107,16 @@ def _sensitivity_errors(n_sub: int) -> tuple[float, float]:
     s, q, f = _random_states(11, 1)[0]
     dt = 0.02
     pr = propagate(s, q, q, f, dt, n_sub, PRM)
-    h = (1e-7, 1e-6, 1e-7)
-    fd = np.empty((3, 3))
-    for j in range(3):
+    h = (1e-7, 1e-6, 1e-7, 1e-7, 1e-6, 1e-5)
+    fd = np.empty((6, 6))
+    for j in range(6):
         sp, sm = s.copy(), s.copy()
         sp[j] += h[j]
         sm[j] -= h[j]
         fd[:, j] = (propagate(sp, q, q, f, dt, n_sub, PRM).s
-                    - propagate(sm, q, q, f, dt, n_sub, PRM).s)[:3] / (2 * h[j])
+                    - propagate(sm, q, q, f, dt, n_sub, PRM).s) / (2 * h[j])
     dg = (propagate(s, q, q, f + 1e-6, dt, n_sub, PRM).s
-          - propagate(s, q, q, f - 1e-6, dt, n_sub, PRM).s)[:3] / 2e-6
+          - propagate(s, q, q, f - 1e-6, dt, n_sub, PRM).s) / 2e-6
     return (float(np.abs(pr.Phi - fd).max() / np.abs(fd).max()),
             float(np.abs(pr.Gamma - dg).max() / np.abs(dg).max()))
 
@@ -150,3 +156,17 @@ def test_constant_input_fault_offsets_the_loop_by_b_over_k0() -> None:
     b_rest = C.aps * C.inv_m * (C.cnum / C.vm2) * C.vmax  # at x1 = x3 = 0
     # x3 settles at ~L x3 leakage balance: 1 % from the rest value of b
     assert s[0] == pytest.approx(b_rest * f / C.k0, rel=0.02)
+
+
+def test_command_timing_noise_spans_the_two_extreme_profiles() -> None:
+    """A 1 cm command step inside a 20 ms interval: the covariance is rank one along the
+    difference of the step taken at the start and at the end, with |e|^2 / 12 on it; no step, no
+    noise."""
+    s = np.zeros(6)
+    Q = command_timing_noise(s, 0.0, 0.01, 0.0, 0.02, 4, PRM)
+    e = propagate(s, 0.01, 0.01, 0.0, 0.02, 4, PRM).s - propagate(s, 0.0, 0.0, 0.0, 0.02, 4,
+                                                                   PRM).s
+    np.testing.assert_allclose(Q, np.outer(e, e) / 12.0, rtol=1e-12)
+    assert np.linalg.matrix_rank(Q, tol=1e-12 * np.abs(Q).max()) == 1
+    assert e[3] > 0.0 and e[5] > 0.0  # the reference model moved further with the early step
+    np.testing.assert_array_equal(command_timing_noise(s, 0.01, 0.01, 0.0, 0.02, 4, PRM), 0.0)
