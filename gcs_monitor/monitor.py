@@ -99,7 +99,8 @@ class Monitor:
                             statuses=bool(sinks) or self.on_step is not None,
                             alarm=self.cfg.alarms, classifier=self.cfg.classifier)
         return VehiclePipeline(sysid, self.families_for(ctx), sinks=sinks,
-                               coverage=self.cfg.coverage, alarm=self.cfg.alarms)
+                               coverage=self.cfg.coverage, alarm=self.cfg.alarms,
+                               statuses=ctx.statuses)
 
     def feed(self, data: bytes, wall_s: float = 0.0) -> list[AlarmEvent]:
         """Decode a chunk and run every Frame it completes; return the alarm events."""
@@ -152,7 +153,8 @@ class Monitor:
 
     def _link_stats(self, v: VehicleState) -> dict[str, float]:
         st = v.assembler.stats
-        return {"loss_pct": st.loss_pct, "crc_errors": float(self.decoder.counters.parse_errors),
+        return {"lost": float(st.lost), "messages": float(st.messages),
+                "crc_errors": float(self.decoder.counters.parse_errors),
                 "boot_count": float(st.reboots), "duplicate_sysid": float(st.duplicate_sysid)}
 
     def finish(self) -> list[AlarmEvent]:

@@ -15,6 +15,7 @@ estimator's warm-up), never with an assumed rate.
 from __future__ import annotations
 
 import math
+from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -35,6 +36,43 @@ US_PER_S = 1_000_000
 # IMU rates the estimators are valid for (their discretisation follows the measured step; below
 # 10 Hz the attitude kinematics between samples is not resolved; docs/results.md, rate sweep)
 RATE_HZ = (10.0, 400.0)
+NO_DATA_PERIODS = 3.0  # an IMU instance is silent after this many of its own periods at least
+
+
+class _Consistency:
+    """Running mean of an estimator's normalised innovation squared, per measurement row.
+
+    A filter whose noise model fits the vehicle has ``E[nu_i^2 / S_ii] = 1``; Lu2016's filter
+    reports ``test_ratio = nu^2 / (gate^2 S)`` per row, so ``lambda = gate^2 x mean(test_ratio)``
+    over the window estimates that expectation. Far above 1, the innovations are not what the
+    noise model expects (another airframe's vibration, a GPS noisier than Table 1): its fault
+    estimates then carry that mismatch and are not judged.
+    """
+
+    __slots__ = ("span_us", "_q", "_sum", "_n_since")
+
+    def __init__(self, span_us: int) -> None:
+        self.span_us = span_us
+        self._q: deque[tuple[int, float]] = deque()
+        self._sum = 0.0
+        self._n_since = 0
+
+    def add(self, t_us: int, lam: float) -> None:
+        q = self._q
+        q.append((t_us, lam))
+        self._sum += lam
+        while q[0][0] <= t_us - self.span_us:
+            self._sum -= q.popleft()[1]
+        self._n_since += 1
+        if self._n_since >= 1000:  # exact re-summation against rounding drift
+            self._n_since = 0
+            self._sum = math.fsum(x for _, x in q)
+
+    def mean(self) -> float:
+        return self._sum / len(self._q) if self._q else math.nan
+
+    def full(self, t_us: int) -> bool:
+        return bool(self._q) and t_us - self._q[0][0] >= self.span_us // 2
 
 
 @dataclass
@@ -73,10 +111,14 @@ class ImuFamily:
                 self._est.append(_Judged(ImuHosmEstimator(cfg.hosm.estimator), cfg.hosm.fdi))
         self._period = SamplePeriod()
         self._estimates: list[Estimate] = []
+        # innovation consistency of each estimator that reports test ratios
+        self._consistency: dict[str, _Consistency] = {}
+        self._gate2 = cfg.ts.estimator.filter.gate_sigma ** 2
         self._inputs = False  # attitude and GPS velocity have been in the telemetry
         # no-data check of every IMU instance: last sample time, alarm
         self._no_data_us = round(cfg.no_data_window_s * US_PER_S)
         self._last_sample: dict[int, int] = {}
+        self._instance_period: dict[int, SamplePeriod] = {}
         self._silent: dict[int, AlarmStateMachine] = {}
 
     @property
@@ -119,13 +161,16 @@ class ImuFamily:
                 if j.judging and j.notice is None:
                     verdict.events.append(self._notice(t_us, j, e, AlarmState.RAISED))
                 j.judging = False
+            misfit = self._inconsistent(t_us, e)
             # Filter convergence: fault estimates are not judged during the warm-up after an
             # estimator (re)starts (its start-up transient is up to 10x its converged
             # fault-free level; docs/results.md, "Detection and isolation with imu_ts").
             if j.start_us is None:
                 j.start_us = t_us + self._warmup_us
-            judged = t_us >= j.start_us
-            if judged:
+            judged = t_us >= j.start_us and not misfit
+            if misfit:
+                reasons.append(misfit)
+            elif judged:
                 j.judging = True
                 judged_any = True
                 if j.notice is not None:
@@ -147,12 +192,21 @@ class ImuFamily:
         ``ChannelId("imu", i)`` with the remaining redundancy; it clears when it delivers."""
         t = frame.t_us
         seen = self._last_sample
+        periods = self._instance_period
         for i, smp in enumerate(frame.imu):
-            if smp is not None:
+            if smp is not None and seen.get(i) != smp.t_us:
                 seen[i] = smp.t_us
+                per = periods.get(i)
+                if per is None:
+                    per = periods[i] = SamplePeriod()
+                per.add(smp.t_us)
         if len(seen) < 2:
             return []
-        silent = {i for i, ts in seen.items() if t - ts > self._no_data_us}
+        # silent for the window, and for several of its own periods (one lost packet of a slow
+        # stream is not a silent sensor)
+        window = self._no_data_us
+        silent = {i for i, ts in seen.items()
+                  if t - ts > window and t - ts > NO_DATA_PERIODS * periods[i].seconds() * 1e6}
         events: list[AlarmEvent] = []
         for i in sorted(seen):
             sm = self._silent.get(i)
@@ -169,6 +223,23 @@ class ImuFamily:
                        f"{n} IMUs deliver")
                 events += sm.step(t, i in silent, fault_type=FaultType.NO_DATA, message=msg)
         return events
+
+    def _inconsistent(self, t_us: int, e: Estimate) -> str:
+        """Why an estimator's innovations do not fit its noise model (empty when they do, or
+        when it does not report test ratios)."""
+        lim = self.cfg.max_inconsistency
+        tr = e.states.get("test_ratio")
+        if lim <= 0.0 or tr is None:
+            return ""
+        c = self._consistency.get(e.name)
+        if c is None:
+            c = self._consistency[e.name] = _Consistency(
+                round(self.cfg.consistency_window_s * US_PER_S))
+        c.add(t_us, self._gate2 * sum(tr.tolist()) / len(tr))
+        if c.full(t_us) and c.mean() > lim:
+            return (f"{e.name}: innovations {c.mean():.0f}x what its noise model expects: "
+                    "calibrate this airframe (gcs-monitor calibrate)")
+        return ""
 
     def _too_slow(self) -> str:
         """Why the IMU rate is outside the family's range (empty when it is inside or not
