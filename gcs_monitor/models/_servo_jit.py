@@ -10,11 +10,10 @@ the IOTSEKF estimates them with the plant states; the RTS-EKF's nominal servo ca
 * :func:`deriv` -- ``ds/dt``;
 * :func:`jacobian` -- ``A = ds_dot/ds`` (6, 6) of the *closed* loop (the NDI law depends on
   the plant and the reference states) and ``G = ds_dot/df^i`` (6,);
-* :func:`propagate` -- RK4 over one sample interval in substeps, the rod command linear between
-  its two samples, with the transition ``Phi``, the fault input matrix ``Gamma`` and the
-  discrete process noise ``Q_d`` accumulated over the substeps (:func:`expm_aug`: scaling and
-  squaring of the augmented matrix ``[[A, G], [0, 0]]``; the closed loop's Jacobian has entries
-  of ~1e4 1/s, so a short series on ``A dt`` would not do);
+* :func:`propagate` -- RK4 over one sample interval in substeps, the rod command piecewise
+  linear between its two samples, with the transition ``Phi`` and the fault input matrix
+  ``Gamma`` as the tangent of the RK4 map (the variational equation integrated with the same
+  stages) and the discrete process noise ``Q_d`` accumulated over the substeps;
 * :func:`command_timing_noise` -- the state uncertainty of a command change at an unknown
   instant inside the interval.
 
@@ -43,8 +42,6 @@ N_PARAMS = 16
 N_S = 6  # [x1, x2, x3, r, r', r'']
 N_X = 3  # plant states the filters estimate
 SQRT_FLOOR = 1.0e-6  # floor under sqrt(1 - sign x3) in the NDI law, as the simulator's servo
-TAYLOR_ORDER = 10  # series of exp(M h / 2^s) with |M h / 2^s|_1 <= 1/2: error < 1e-10
-MAX_SQUARINGS = 40
 
 
 @jit
@@ -71,9 +68,9 @@ def reference_jerk(s, q_com, prm):
 
 
 @jit
-def ndi(s, q_com, prm, grad):
-    """Saturated NDI valve command (Lu2017 eq. 13, r = 3) and, in ``grad`` (3,), its gradient
-    with respect to (x1, x2, x3) (zero when saturated)."""
+def _ndi(s, q_com, prm):
+    """The NDI law of :func:`ndi` without allocations: ``(u, du/dx1, du/dx2, du/dx3,
+    1/(L_g L_f^2 h), saturated)``."""
     x1 = s[0]
     x2 = s[1]
     x3 = s[2]
@@ -97,10 +94,7 @@ def ndi(s, q_com, prm, grad):
     u = num / b
     umax = prm[P_UMAX]
     if u > umax or u < -umax:
-        grad[0] = 0.0
-        grad[1] = 0.0
-        grad[2] = 0.0
-        return umax if u > 0.0 else -umax
+        return (umax if u > 0.0 else -umax), 0.0, 0.0, 0.0, 1.0 / b, True
     dydd1 = -bb * inv_m
     dydd2 = aps * inv_m
     dlf0 = aps * dcy * (-leak * x3 - x2) * inv_m
@@ -108,17 +102,25 @@ def ndi(s, q_com, prm, grad):
     dlf2 = (-aps * cy * leak - bb * dydd2) * inv_m
     db0 = b * dcy / cy
     db2 = 0.0 if floor else -b * sg / (2.0 * arg)
-    grad[0] = (-k0 - dlf0 - u * db0) / b
-    grad[1] = (-k1 - k2 * dydd1 - dlf1) / b
-    grad[2] = (-k2 * dydd2 - dlf2 - u * db2) / b
+    return (u, (-k0 - dlf0 - u * db0) / b, (-k1 - k2 * dydd1 - dlf1) / b,
+            (-k2 * dydd2 - dlf2 - u * db2) / b, 1.0 / b, False)
+
+
+@jit
+def ndi(s, q_com, prm, grad):
+    """Saturated NDI valve command (Lu2017 eq. 13, r = 3) and, in ``grad`` (3,), its gradient
+    with respect to (x1, x2, x3) (zero when saturated)."""
+    u, g0, g1, g2, _ib, _sat = _ndi(s, q_com, prm)
+    grad[0] = g0
+    grad[1] = g1
+    grad[2] = g2
     return u
 
 
 @jit
 def deriv(s, q_com, f_in, prm, d):
     """``d = ds/dt`` (6,) of the closed loop with input fault ``f_in`` (valve units)."""
-    grad = np.empty(3)
-    u = ndi(s, q_com, prm, grad)
+    u, _g0, _g1, _g2, _ib, _sat = _ndi(s, q_com, prm)
     ut = u + f_in
     sg = 1.0 if ut >= 0.0 else -1.0
     arg = 1.0 - sg * s[2]
@@ -141,8 +143,7 @@ def jacobian(s, q_com, f_in, prm, A, G):
     dependence on the reference states (its feed-forward ``r'''`` included), ``A[3:, 3:]`` the
     reference model, ``A[3:, :3] = 0``.
     """
-    grad = np.empty(3)
-    u = ndi(s, q_com, prm, grad)
+    u, g0, g1, g2, inv_b, sat = _ndi(s, q_com, prm)
     ut = u + f_in
     sg = 1.0 if ut >= 0.0 else -1.0
     x2 = s[1]
@@ -160,12 +161,12 @@ def jacobian(s, q_com, f_in, prm, A, G):
     A[0, 1] = 1.0
     A[1, 1] = -prm[P_BB] * prm[P_INV_M]
     A[1, 2] = prm[P_APS] * prm[P_INV_M]
-    A[2, 0] = dcx * (vmax * sq * ut - leak * x3 - x2) + cx * vmax * sq * grad[0]
-    A[2, 1] = cx * (vmax * sq * grad[1] - 1.0)
-    A[2, 2] = cx * (vmax * (dsq * ut + sq * grad[2]) - leak)
-    if grad[0] != 0.0 or grad[1] != 0.0 or grad[2] != 0.0:  # unsaturated: u depends on r
+    A[2, 0] = dcx * (vmax * sq * ut - leak * x3 - x2) + cx * vmax * sq * g0
+    A[2, 1] = cx * (vmax * sq * g1 - 1.0)
+    A[2, 2] = cx * (vmax * (dsq * ut + sq * g2) - leak)
+    if not sat:  # unsaturated: u depends on r
         # d num / d(r, r', r'') with r''' = w^3 (q - r) - z2 w^2 r' - z2 w r'' fed forward
-        k = cx * vmax * sq * _inv_b(s, q_com, prm)
+        k = cx * vmax * sq * inv_b
         A[2, 3] = k * (prm[P_K0] - prm[P_W3])
         A[2, 4] = k * (prm[P_K1] - prm[P_Z2W2])
         A[2, 5] = k * (prm[P_K2] - prm[P_Z2W])
@@ -175,85 +176,6 @@ def jacobian(s, q_com, f_in, prm, A, G):
     A[5, 4] = -prm[P_Z2W2]
     A[5, 5] = -prm[P_Z2W]
     G[2] = cx * vmax * sq
-
-
-@jit
-def _inv_b(s, q_com, prm):
-    """``1 / (L_g L_f^2 h)`` of the NDI law at ``s`` (its sign branch included)."""
-    x1 = s[0]
-    x2 = s[1]
-    x3 = s[2]
-    aps = prm[P_APS]
-    inv_m = prm[P_INV_M]
-    cy, _dcy = chamber(x1, prm)
-    ydd = (aps * x3 - prm[P_BB] * x2) * inv_m
-    lf3h = (aps * cy * (-prm[P_LEAK] * x3 - x2) - prm[P_BB] * ydd) * inv_m
-    num = (reference_jerk(s, q_com, prm) + prm[P_K2] * (s[5] - ydd) + prm[P_K1] * (s[4] - x2)
-           + prm[P_K0] * (s[3] - x1) - lf3h)
-    sg = 1.0 if num >= 0.0 else -1.0
-    arg = 1.0 - sg * x3
-    sqr = math.sqrt(SQRT_FLOOR if arg <= SQRT_FLOOR else arg)
-    return 1.0 / (aps * inv_m * cy * prm[P_VMAX] * sqr)
-
-
-@jit
-def _mm(A, B, C):
-    """``C = A B`` for small square matrices (loops: a BLAS call costs more than a 4x4 product;
-    ``C`` must not be ``A`` or ``B``)."""
-    n = A.shape[0]
-    for i in range(n):
-        for j in range(n):
-            acc = 0.0
-            for k in range(n):
-                acc += A[i, k] * B[k, j]
-            C[i, j] = acc
-
-
-@jit
-def expm_aug(A, G, h, Phi, Gam):
-    """``exp([[A, G], [0, 0]] h) = [[Phi, Gamma], [0, 1]]`` by scaling and squaring.
-
-    ``Phi = exp(A h)`` (n, n) and ``Gamma = int_0^h exp(A t) dt G`` (n,): Taylor series of
-    order :data:`TAYLOR_ORDER` of the augmented matrix scaled to 1-norm <= 1/2, then squared.
-    """
-    nx = A.shape[0]
-    n = nx + 1
-    M = np.zeros((n, n))
-    for i in range(nx):
-        for j in range(nx):
-            M[i, j] = A[i, j] * h
-        M[i, nx] = G[i] * h
-    norm = 0.0
-    for j in range(n):
-        col = 0.0
-        for i in range(n):
-            col += abs(M[i, j])
-        norm = max(norm, col)
-    sq = 0
-    while norm > 0.5 and sq < MAX_SQUARINGS:
-        norm *= 0.5
-        sq += 1
-    scale = 0.5 ** sq
-    for i in range(n):
-        for j in range(n):
-            M[i, j] *= scale
-    E = np.eye(n)
-    T = np.eye(n)
-    W = np.empty((n, n))
-    for k in range(1, TAYLOR_ORDER + 1):
-        _mm(T, M, W)
-        inv_k = 1.0 / k
-        for i in range(n):
-            for j in range(n):
-                T[i, j] = W[i, j] * inv_k
-                E[i, j] += T[i, j]
-    for _ in range(sq):
-        _mm(E, E, W)
-        E[:, :] = W
-    for i in range(nx):
-        for j in range(nx):
-            Phi[i, j] = E[i, j]
-        Gam[i] = E[i, nx]
 
 
 @jit
@@ -283,6 +205,20 @@ def command_at(qc0, qc1, t, t_knee):
 
 
 @jit
+def _stage_tangent(s, q, f_in, prm, M, A, G, K):
+    """``K = A(s) M + [0 | G(s)]`` (6, 7): the variational equation of the closed loop for the
+    tangent ``M = [d s / d s_0 | d s / d f^i]``."""
+    jacobian(s, q, f_in, prm, A, G)
+    for i in range(N_S):
+        for j in range(N_S + 1):
+            acc = 0.0
+            for m in range(N_S):
+                acc += A[i, m] * M[m, j]
+            K[i, j] = acc
+        K[i, N_S] += G[i]
+
+
+@jit
 def propagate(s, qc0, qc1, f_in, dt, t_knee, n_sub, prm, jac, q_valve, q_state, Phi, Gam,
               Qd):
     """RK4 of the closed loop over ``dt`` in ``n_sub`` substeps, in place on ``s`` (6,).
@@ -290,14 +226,17 @@ def propagate(s, qc0, qc1, f_in, dt, t_knee, n_sub, prm, jac, q_valve, q_state, 
     The rod command runs linearly from ``qc0`` to ``qc1`` until ``t_knee`` into the interval
     and is held at ``qc1`` after it (``t_knee = dt``: linear over the whole interval; see
     :func:`command_at`); ``f_in`` is held.
-    With ``jac`` set, also (at each substep's starting state, substep length h)
-    ``Phi <- Phi_i Phi``, ``Gamma <- Phi_i Gamma + Gamma_i`` (:func:`expm_aug`) and
-    ``Q_d <- Phi_i Q_d Phi_i^T + (G q_valve G^T + diag(q_state)) h`` (symmetrised), (6, 6) and
-    (6,) over plant and reference states: the transition (Lu2017 eq. 19), the fault input
-    matrix (eq. 20, the integrand ``exp(A t)``) and the discrete process noise of a
-    valve-command noise of PSD ``q_valve`` and state noises of PSDs ``q_state`` (6,) (eq. 39,
-    ``Q_k^d``). ``A`` is block upper triangular, so the plant block ``[:3, :3]`` is the
-    transition of the plant states alone with the reference states given.
+
+    With ``jac`` set, also the transition ``Phi`` (6, 6) (Lu2017 eq. 19) and the fault input
+    matrix ``Gamma`` (6,) (eq. 20) as the derivatives of the integrated state with respect to
+    the initial state and to ``f_in``: the variational equation ``M' = A M + [0 | G]`` rides
+    along each RK4 substep with the same stages (the tangent of the discrete RK4 map, exact up
+    to the kinks of saturation and sign(u); Lu2017 eqs. 19-20 take ``exp(A dt)`` at the
+    interval's start). The discrete process noise (eq. 39, ``Q_k^d``) accumulates per substep
+    ``Q_d <- Phi_i Q_d Phi_i^T + (G q_valve G^T + diag(q_state)) h`` (symmetrised) for a
+    valve-command noise of PSD ``q_valve`` and state noises of PSDs ``q_state`` (6,). ``A`` is
+    block upper triangular, so the plant block ``[:3, :3]`` is the transition of the plant
+    states alone with the reference states given.
     """
     h = dt / n_sub
     k1 = np.empty(N_S)
@@ -307,10 +246,15 @@ def propagate(s, qc0, qc1, f_in, dt, t_knee, n_sub, prm, jac, q_valve, q_state, 
     t = np.empty(N_S)
     A = np.empty((N_S, N_S))
     G = np.empty(N_S)
-    Pi = np.empty((N_S, N_S))
-    Gi = np.empty(N_S)
+    M = np.empty((N_S, N_S + 1))
+    Mt = np.empty((N_S, N_S + 1))
+    K1 = np.empty((N_S, N_S + 1))
+    K2 = np.empty((N_S, N_S + 1))
+    K3 = np.empty((N_S, N_S + 1))
+    K4 = np.empty((N_S, N_S + 1))
     W = np.empty((N_S, N_S))
     W2 = np.empty((N_S, N_S))
+    g0 = np.empty(N_S)
     if jac:
         for i in range(N_S):
             Gam[i] = 0.0
@@ -322,28 +266,70 @@ def propagate(s, qc0, qc1, f_in, dt, t_knee, n_sub, prm, jac, q_valve, q_state, 
         qa = command_at(qc0, qc1, t0, t_knee)
         qm = command_at(qc0, qc1, t0 + 0.5 * h, t_knee)
         qb = command_at(qc0, qc1, t0 + h, t_knee)
-        if jac:
-            jacobian(s, qa, f_in, prm, A, G)
-            expm_aug(A, G, h, Pi, Gi)
-            _mm(Pi, Phi, W)
-            Phi[:, :] = W
-            for i in range(N_S):
-                acc = Gi[i]
-                for j in range(N_S):
-                    acc += Pi[i, j] * Gam[j]
-                W[i, 0] = acc
-            for i in range(N_S):
-                Gam[i] = W[i, 0]
-            _mm(Pi, Qd, W)  # Pi Qd Pi^T
-            for i in range(N_S):
-                for j in range(N_S):
-                    acc = 0.0
-                    for m in range(N_S):
-                        acc += W[i, m] * Pi[j, m]
-                    W2[i, j] = acc + G[i] * G[j] * q_valve * h
-                W2[i, i] += q_state[i] * h
-            Qd[:, :] = W2
-        _rk4(s, qa, qm, qb, f_in, h, prm, k1, k2, k3, k4, t)
+        if not jac:
+            _rk4(s, qa, qm, qb, f_in, h, prm, k1, k2, k3, k4, t)
+            continue
+        for i in range(N_S):  # the substep's tangent starts at [I | 0]
+            for j in range(N_S + 1):
+                M[i, j] = 1.0 if i == j else 0.0
+        _stage_tangent(s, qa, f_in, prm, M, A, G, K1)
+        for i in range(N_S):
+            g0[i] = G[i]
+        deriv(s, qa, f_in, prm, k1)
+        for i in range(N_S):
+            t[i] = s[i] + 0.5 * h * k1[i]
+            for j in range(N_S + 1):
+                Mt[i, j] = M[i, j] + 0.5 * h * K1[i, j]
+        _stage_tangent(t, qm, f_in, prm, Mt, A, G, K2)
+        deriv(t, qm, f_in, prm, k2)
+        for i in range(N_S):
+            t[i] = s[i] + 0.5 * h * k2[i]
+            for j in range(N_S + 1):
+                Mt[i, j] = M[i, j] + 0.5 * h * K2[i, j]
+        _stage_tangent(t, qm, f_in, prm, Mt, A, G, K3)
+        deriv(t, qm, f_in, prm, k3)
+        for i in range(N_S):
+            t[i] = s[i] + h * k3[i]
+            for j in range(N_S + 1):
+                Mt[i, j] = M[i, j] + h * K3[i, j]
+        _stage_tangent(t, qb, f_in, prm, Mt, A, G, K4)
+        deriv(t, qb, f_in, prm, k4)
+        for i in range(N_S):
+            s[i] = s[i] + h / 6.0 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
+            for j in range(N_S + 1):
+                M[i, j] = M[i, j] + h / 6.0 * (K1[i, j] + 2.0 * (K2[i, j] + K3[i, j])
+                                               + K4[i, j])
+        # Phi <- Phi_i Phi, Gamma <- Phi_i Gamma + Gamma_i, Q_d <- Phi_i Q_d Phi_i^T + ...
+        for i in range(N_S):
+            acc = M[i, N_S]
+            for j in range(N_S):
+                acc += M[i, j] * Gam[j]
+            k1[i] = acc
+            for j in range(N_S):
+                a2 = 0.0
+                for m in range(N_S):
+                    a2 += M[i, m] * Phi[m, j]
+                W[i, j] = a2
+        for i in range(N_S):
+            Gam[i] = k1[i]
+            for j in range(N_S):
+                Phi[i, j] = W[i, j]
+        for i in range(N_S):
+            for j in range(N_S):
+                a2 = 0.0
+                for m in range(N_S):
+                    a2 += M[i, m] * Qd[m, j]
+                W[i, j] = a2
+        for i in range(N_S):
+            for j in range(N_S):
+                a2 = 0.0
+                for m in range(N_S):
+                    a2 += W[i, m] * M[j, m]
+                W2[i, j] = a2 + g0[i] * g0[j] * q_valve * h
+            W2[i, i] += q_state[i] * h
+        for i in range(N_S):
+            for j in range(N_S):
+                Qd[i, j] = W2[i, j]
     if jac:
         for i in range(N_S):
             for j in range(i + 1, N_S):

@@ -8,8 +8,8 @@ saturated valve command. State ``s = [x1, x2, x3, r, r', r'']``.
 :func:`deriv` is the derivative, :func:`jacobian` its analytic Jacobian with respect to the
 plant states (the closed loop: the NDI law depends on them) and the input fault,
 :func:`propagate` the RK4 integration over one sample interval with the transition matrix
-``Phi``, the fault input matrix ``Gamma`` and the discrete process noise ``Q_d`` accumulated
-over the substeps (scipy's ``expm`` here; scaling and squaring in the kernel).
+``Phi`` and the fault input matrix ``Gamma`` (the tangent of the RK4 map) and the discrete
+process noise ``Q_d`` accumulated over the substeps.
 """
 
 from __future__ import annotations
@@ -17,7 +17,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.linalg import expm
 
 from gcs_monitor.models.servo import ServoLoopParams, ServoParams
 
@@ -142,39 +141,43 @@ def propagate(c: Consts, s0: list[float], qc0: float, qc1: float, f_in: float, d
     """RK4 over ``dt`` in ``n_sub`` substeps, the command linear from qc0 to qc1 until
     ``t_knee`` (default: dt), then held.
 
-    Returns the state at the end, ``Phi`` (6, 6), ``Gamma`` (6,) (the response to a constant
-    input fault over the interval) and ``Q_d`` (6, 6): per substep of length h,
-    ``exp([[A, G], [0, 0]] h) = [[Phi_i, Gamma_i], [0, 1]]`` at the substep's starting state,
-    ``Phi = Phi_n ... Phi_1``, ``Gamma <- Phi_i Gamma + Gamma_i``,
-    ``Q_d <- Phi_i Q_d Phi_i^T + (G q_valve G^T + diag(q_state)) h``.
+    Returns the state at the end, ``Phi`` (6, 6), ``Gamma`` (6,) and ``Q_d`` (6, 6): per
+    substep the tangent ``M = [Phi_i | Gamma_i]`` of the RK4 map (``M' = A M + [0 | G]`` with
+    the same stages, from ``[I | 0]``), ``Phi = Phi_n ... Phi_1``, ``Gamma <- Phi_i Gamma +
+    Gamma_i``, ``Q_d <- Phi_i Q_d Phi_i^T + (G q_valve G^T + diag(q_state)) h`` with ``G`` at
+    the substep's start.
     """
     h = dt / n_sub
-    s = list(s0)
+    s = np.array(s0, dtype=float)
     Phi = np.eye(6)
     Gam = np.zeros(6)
     Qd = np.zeros((6, 6))
+    tk = dt if t_knee is None else t_knee
+
+    def rates(x: np.ndarray, q: float, M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        A, G = jacobian(c, list(x), q, f_in)
+        K = A @ M
+        K[:, 6] += G
+        return np.array(deriv(c, list(x), q, f_in)), K
+
     for i in range(n_sub):
         t0 = i * h
-        tk = dt if t_knee is None else t_knee
         qa = command_at(qc0, qc1, t0, tk)
         qm = command_at(qc0, qc1, t0 + 0.5 * h, tk)
         qb = command_at(qc0, qc1, t0 + h, tk)
-        A, G = jacobian(c, s, qa, f_in)
-        M = np.zeros((7, 7))
-        M[:6, :6] = A
-        M[:6, 6] = G
-        E = expm(M * h)
-        Pi, Gi = E[:6, :6], E[:6, 6]
+        M = np.hstack([np.eye(6), np.zeros((6, 1))])
+        _, G0 = jacobian(c, list(s), qa, f_in)
+        k1, K1 = rates(s, qa, M)
+        k2, K2 = rates(s + 0.5 * h * k1, qm, M + 0.5 * h * K1)
+        k3, K3 = rates(s + 0.5 * h * k2, qm, M + 0.5 * h * K2)
+        k4, K4 = rates(s + h * k3, qb, M + h * K3)
+        s = s + h / 6.0 * (k1 + 2.0 * (k2 + k3) + k4)
+        M = M + h / 6.0 * (K1 + 2.0 * (K2 + K3) + K4)
+        Pi, Gi = M[:, :6], M[:, 6]
         Phi = Pi @ Phi
         Gam = Pi @ Gam + Gi
-        Qd = Pi @ Qd @ Pi.T + (np.outer(G, G) * q_valve + np.diag(q_state)) * h
-        k1 = deriv(c, s, qa, f_in)
-        k2 = deriv(c, [a + 0.5 * h * b for a, b in zip(s, k1, strict=True)], qm, f_in)
-        k3 = deriv(c, [a + 0.5 * h * b for a, b in zip(s, k2, strict=True)], qm, f_in)
-        k4 = deriv(c, [a + h * b for a, b in zip(s, k3, strict=True)], qb, f_in)
-        s = [a + h / 6.0 * (p + 2.0 * (q + r) + w)
-             for a, p, q, r, w in zip(s, k1, k2, k3, k4, strict=True)]
-    return s, Phi, Gam, 0.5 * (Qd + Qd.T)
+        Qd = Pi @ Qd @ Pi.T + (np.outer(G0, G0) * q_valve + np.diag(q_state)) * h
+    return list(s), Phi, Gam, 0.5 * (Qd + Qd.T)
 
 
 def command_timing_noise(c: Consts, s: list[float], qc0: float, qc1: float, f_in: float,
