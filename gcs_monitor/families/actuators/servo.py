@@ -54,10 +54,13 @@ from gcs_monitor.families.actuators.servo_filters import (
     O_F_IN,
     O_F_ROD,
     O_F_SURF,
+    O_JIT,
     O_N1,
     O_N3,
     O_NU,
     O_Q_COM,
+    O_SF_D,
+    O_SF_ROD,
     O_U,
     O_X1,
     O_X3,
@@ -90,7 +93,7 @@ ESTIMATORS = {"input": IOTSEKF_NAME, "output": RTSEKF_NAME}
 RATE_HZ = (20.0, 1000.0)
 
 VALVE = DisplayUnit("valve", "valveps", 1.0)  # the valve command's own unit (-, |u| <= 1)
-ROD = DisplayUnit("m", "mps", 1.0)  # m of rod
+SIGMA = DisplayUnit("sigma", "sigmaps", 1.0)  # standard deviations of the filter's own P^f
 
 
 def servo_channel(surface: int, axis: str) -> ChannelId:
@@ -107,18 +110,20 @@ def input_channels(threshold: float) -> ChannelSetConfig:
                             reclassify_s=0.5)
 
 
-def output_channels(threshold_m: float) -> ChannelSetConfig:
-    """Output-fault channels (m of rod), as :func:`input_channels`."""
-    return ChannelSetConfig(threshold=threshold_m, window_s=0.2, detect_ratio=0.5, clear_s=5.0,
-                            latch=False, noise_sigma=3.0e-4, runaway_rate=0.2, history_s=4.0,
-                            reclassify_s=0.5)
+def output_channels(threshold_sigma: float) -> ChannelSetConfig:
+    """Output-fault channels (sigmas of the RTS-EKF's P^f), as :func:`input_channels`."""
+    return ChannelSetConfig(threshold=threshold_sigma, window_s=0.2, detect_ratio=0.5,
+                            clear_s=5.0, latch=False, noise_sigma=1.0, runaway_rate=1.0,
+                            history_s=4.0, reclassify_s=0.5)
 
 
 # Thresholds: 1.5 x the worst fault-free residual RMS over fault-free runs of the servo campaign
 # (every manoeuvre, turbulence; calibration seeds, not the evaluation seeds) and the Lu2017
 # fault-free preset: `gcs-monitor evaluate --experiment lu2017_calibration` prints them.
-INPUT_THRESHOLD = 0.02
-OUTPUT_THRESHOLD_M = 2.0e-3
+INPUT_THRESHOLD = 0.017
+INPUT_PER_JITTER = 6.8  # valve per m of unseen-command spread
+OUTPUT_THRESHOLD_SIGMA = 3.2
+OUTPUT_PER_JITTER = 0.0  # sigmas per m: the RTS-EKF's P^f carries the command uncertainty
 
 
 @dataclass(frozen=True, slots=True)
@@ -129,9 +134,15 @@ class ServoFdiSets:
                                       "input-fault channels: the IOTSEKF's f^i (valve units)",
                                       unit=VALVE)
     output: ChannelSetConfig = section(
-        lambda: output_channels(OUTPUT_THRESHOLD_M),
+        lambda: output_channels(OUTPUT_THRESHOLD_SIGMA),
         "output-fault channels: the RTS-EKF's rod output fault or the rod-surface sensor "
-        "disagreement, whichever is larger (m of rod)", unit=ROD)
+        "disagreement over its standard deviation (P^f, Lu2017 eq. 43), whichever is larger "
+        "(sigmas)", unit=SIGMA)
+    input_per_jitter: float = param(
+        INPUT_PER_JITTER, "growth of the input J_th per m of unseen-command spread (the rod "
+        "command's jumps between SURF samples, see servo_filters.ServoFilters)")
+    output_per_jitter: float = param(
+        OUTPUT_PER_JITTER, "growth of the output J_th (sigmas) per m of unseen-command spread")
 
 
 @dataclass(frozen=True, slots=True)
@@ -202,7 +213,7 @@ class _SurfaceFdi:
     """Detectors, history and the one alarm of one surface (module docstring)."""
 
     def __init__(self, surface: int, p_in: ChannelMonitorParams, p_out: ChannelMonitorParams,
-                 tier: ServoTier) -> None:
+                 fdi: ServoFdiSets, tier: ServoTier) -> None:
         self.k = surface
         self.p = {"input": p_in, "output": p_out}
         self.rms = {a: ResidualRms(self.p[a].rms) for a in AXES}
@@ -215,6 +226,8 @@ class _SurfaceFdi:
                       for a in AXES}
         self.hist = _History(p_in.history_n)
         self.tier = tier
+        self.per_jitter = {"input": fdi.input_per_jitter, "output": fdi.output_per_jitter}
+        self.th = {a: self.p[a].threshold for a in AXES}  # the scheduled J_th of this sample
         self.active_axis: str | None = None
         self.onset_n = 0  # history rows since the detection's onset
         self.since_class = 0
@@ -223,19 +236,23 @@ class _SurfaceFdi:
     def step(self, t_us: int, row: np.ndarray, statuses: list[ChannelStatus] | None
              ) -> list[AlarmEvent]:
         f_in = float(row[O_F_IN])
-        f_rod = float(row[O_F_ROD])
-        d = f_rod - float(row[O_F_SURF])
-        v_out = f_rod if abs(f_rod) >= abs(d) else d
+        # the output detector in sigmas of the RTS-EKF's own P^f (eq. 43): the rod sensor's
+        # deviation from the nominal servo, or the rod-surface disagreement, the larger
+        z_rod = float(row[O_F_ROD]) / float(row[O_SF_ROD])
+        z_d = (float(row[O_F_ROD]) - float(row[O_F_SURF])) / float(row[O_SF_D])
+        v_out = z_rod if abs(z_rod) >= abs(z_d) else z_d
         self.hist.push(row)
         values = {"input": f_in, "output": v_out}
+        jit = float(row[O_JIT])
         for a in AXES:
             j = self.rms[a].update(values[a])
             self.J[a] = j
-            self.faulty[a] = self.conf[a].update(j, self.p[a].threshold)
+            th = self.p[a].threshold + self.per_jitter[a] * jit
+            self.th[a] = th
+            self.faulty[a] = self.conf[a].update(j, th)
             if statuses is not None:
                 statuses.append(ChannelStatus(servo_channel(self.k, a), t_us, values[a], j,
-                                              self.p[a].threshold, self.faulty[a],
-                                              ESTIMATORS[a]))
+                                              th, self.faulty[a], ESTIMATORS[a]))
         detected = self.faulty["input"] or self.faulty["output"]
         if not detected:
             self.onset_n = 0
@@ -250,7 +267,7 @@ class _SurfaceFdi:
         self.since_class += 1
         if self.active_axis is not None and (
                 self.since_class < self.p["input"].reclassify_every_n
-                or not any(self.J[a] > self.p[a].threshold for a in AXES)):
+                or not any(self.J[a] > self.th[a] for a in AXES)):
             # re-classified every reclassify_s, and only while a detector sees the fault (a
             # confirmed fault is held for clear_s below the clear level: nothing to learn then)
             return []
@@ -264,7 +281,7 @@ class _SurfaceFdi:
         msg = f"{SURFACES[self.k]} {c.message}"
         events += self.alarm[c.axis].step(t_us, True, fault_type=c.fault_type,
                                           magnitude=c.magnitude, rms=self.J[c.axis],
-                                          threshold=self.p[c.axis].threshold, message=msg)
+                                          threshold=self.th[c.axis], message=msg)
         return events
 
     def _settle(self, c: ServoClass) -> ServoClass:
@@ -291,8 +308,8 @@ class _SurfaceFdi:
                         stroke_m=tier.cfg.sensors.rod_stroke_m,
                         rod_sigma_m=tier.cfg.sensors.rod_sigma_m)
         return classify_servo(w, tier.cfg.classifier,
-                              input_ratio=self.J["input"] / self.p["input"].threshold,
-                              output_ratio=self.J["output"] / self.p["output"].threshold)
+                              input_ratio=self.J["input"] / self.th["input"],
+                              output_ratio=self.J["output"] / self.th["output"])
 
     def _clear(self, t_us: int, why: str) -> list[AlarmEvent]:
         a = self.active_axis
@@ -300,7 +317,7 @@ class _SurfaceFdi:
         self.since_class = 0
         if a is None or not self.alarm[a].active:
             return []
-        return self.alarm[a].step(t_us, False, rms=self.J[a], threshold=self.p[a].threshold,
+        return self.alarm[a].step(t_us, False, rms=self.J[a], threshold=self.th[a],
                                   message=why)
 
     def retire(self, t_us: int, why: str) -> list[AlarmEvent]:
@@ -428,7 +445,8 @@ class ServoTier:
                               classifier=ctx.classifier)
         p_out = channel_params(self.cfg.fdi.output, period_s, alarm=ctx.alarm,
                                classifier=ctx.classifier)
-        self._fdi = [_SurfaceFdi(k, p_in, p_out, self) for k in range(len(SURFACES))]
+        self._fdi = [_SurfaceFdi(k, p_in, p_out, self.cfg.fdi, self)
+                     for k in range(len(SURFACES))]
 
     def _retire(self, t_us: int, why: str) -> list[AlarmEvent]:
         if self._fdi is None:

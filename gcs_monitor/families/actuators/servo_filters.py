@@ -42,10 +42,6 @@ from gcs_monitor.core.params import param
 from gcs_monitor.core.units import DEG2RAD
 from gcs_monitor.models.servo import ServoLoopParams, ServoParams, pack_params
 
-_MODEL = "gcs_monitor.models._servo_jit"
-_IOTSEKF = "gcs_monitor.filters._iotsekf_jit"
-_RTS = "gcs_monitor.filters._three_step_jit"
-
 
 @dataclass(frozen=True, slots=True)
 class ServoSensors:
@@ -66,7 +62,9 @@ class ServoSensors:
 class ServoFilterConfig:
     """Settings of the two filters (Lu2017 gives no noise or random-walk values; ours)."""
 
-    substep_s: float = param(0.005, "longest RK4 substep of the model over a sample interval",
+    substep_s: float = param(0.01, "longest RK4 substep of the model over a sample interval "
+                             "(the closed loop's fastest poles, ~60 rad/s, give |lambda h| ~ "
+                             "0.6: RK4 stays accurate; half of it changes no estimate by 1e-4)",
                              positive=True)
     valve_noise_psd: float = param(1.0e-6, "PSD of the valve-command uncertainty (process "
                                    "noise through G; valve units^2 s)", positive=True)
@@ -91,25 +89,68 @@ class ServoFilterConfig:
     command_step_noise: bool = param(True, "a change of the rod command between two samples "
                                      "adds the covariance of its unknown instant to the "
                                      "IOTSEKF's process noise (ours, module docstring)")
+    command_jitter_noise: bool = param(True, "a command that jumps between samples (faster "
+                                       "than the SURF stream) adds the covariance of the "
+                                       "unseen samples in between (ours, see ServoFilters)")
+    command_jitter_window_s: float = param(0.5, "time constant of the running mean of the "
+                                           "command's squared second differences",
+                                           positive=True)
     velocity_init_sigma_mps: float = param(0.05, "initial rod velocity sigma", positive=True)
     pressure_init_sigma: float = param(0.05, "initial dP/P_s sigma", positive=True)
     gate_sigma: float = param(3.0, "gate of the innovation test ratios (reporting)",
                               positive=True)
 
 
-# layout of one surface's output row (ServoFilters.step)
+# the output row of one surface (ServoFilters.step): the kernel's O_* indices
 (O_F_IN, O_U, O_X1, O_X2, O_X3, O_N1, O_N2, O_N3, O_F_ROD, O_F_SURF, O_NU, O_S, O_Q_COM,
- O_Y_ROD, O_Y_SURF) = range(15)
-N_OUT = 15
+ O_Y_ROD, O_Y_SURF, O_SF_ROD, O_SF_D, O_JIT) = range(18)
+N_OUT = 18
+_KERNEL = "gcs_monitor.families.actuators._servo_filters_jit"
+
+
+def pack_config(sensors: ServoSensors, cfg: ServoFilterConfig) -> np.ndarray:
+    """The kernel's configuration vector (``C_*`` indices)."""
+    k = load_kernels(_KERNEL)
+    out = np.empty(k.N_CFG)
+    out[k.C_GAIN] = sensors.rod_gain_radpm
+    out[k.C_STROKE] = sensors.rod_stroke_m
+    out[k.C_ROD_SIG] = sensors.rod_sigma_m
+    out[k.C_SURF_SIG] = sensors.surf_sigma_rad
+    out[k.C_SUBSTEP] = cfg.substep_s
+    out[k.C_QVALVE] = cfg.valve_noise_psd
+    out[k.C_QS0], out[k.C_QS1], out[k.C_QS2] = cfg.state_noise_psd
+    out[k.C_FRATE] = cfg.fault_rate_sigma
+    out[k.C_GATE] = cfg.gate_sigma
+    out[k.C_LEAD] = cfg.command_lead_s
+    out[k.C_STEP_NOISE] = float(cfg.command_step_noise)
+    out[k.C_JIT_NOISE] = float(cfg.command_jitter_noise)
+    out[k.C_JIT_WINDOW] = cfg.command_jitter_window_s
+    out[k.C_BLEND] = float(cfg.bias_free_from_blend)
+    return out
 
 
 class ServoFilters:
-    """The IOTSEKF and the RTS-EKF of one surface (module docstring).
+    """The IOTSEKF and the RTS-EKF of one surface (module docstring), one kernel call per SURF
+    sample (``_servo_filters_jit.surface_step``).
 
-    ``step`` runs one SURF interval and returns the output row (``O_*`` indices): the input
+    ``step`` runs one SURF interval and fills the output row (``O_*`` indices): the input
     fault estimate, the valve command it implies ``u_NDI(x_hat) + f^i``, the IOTSEKF state, the
     RTS-EKF (nominal servo) state, its rod and surface output faults, the IOTSEKF innovation
-    and its variance, the rod command and the two measurements (surface in m of rod).
+    and its variance, the rod command, the two measurements (surface in m of rod), the standard
+    deviations of the rod output fault and of the rod-surface disagreement (from the RTS-EKF's
+    ``P^f``, eq. 43) and the unseen-command spread (m).
+
+    Per interval: the covariance of the command's unknown profile inside it (a change at an
+    unknown instant; unseen samples when the command jumps between samples, their spread from
+    the running mean of its squared second differences) is evaluated at the IOTSEKF's estimate
+    and added to both filters' process noise; the IOTSEKF propagates its blended estimate with
+    the fault held (Phi, Gamma, Q_d along it) and predicts the bias-free state from it
+    (``bias_free_from_blend``); the RTS-EKF propagates the nominal servo. The sigma of the rod
+    output fault adds the nominal servo's timing envelope: two more copies of it run the same
+    command sequence with every change at the start and at the end of its interval (a command
+    step that saturates the valve leaves the rod a rate x interval apart for the whole slew,
+    which no linearised covariance carries); uniform between the two, variance
+    ``(x1_early - x1_late)^2 / 12``.
     """
 
     def __init__(self, servo: ServoParams, loop: ServoLoopParams, sensors: ServoSensors,
@@ -117,43 +158,10 @@ class ServoFilters:
         self.cfg = cfg
         self.sensors = sensors
         self.prm = pack_params(servo, loop, sensors.rod_stroke_m)
-        self._model = load_kernels(_MODEL)
-        self._iots = load_kernels(_IOTSEKF)
-        self._rts = load_kernels(_RTS)
-        g = sensors.rod_gain_radpm
-        self._H1 = np.array([[1.0, 0.0, 0.0, 0.0, 0.0, 0.0]])
-        self._R1 = np.array([[sensors.rod_sigma_m ** 2]])
-        self._H2 = np.array([[1.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
-        self._R2 = np.diag([sensors.rod_sigma_m ** 2, (sensors.surf_sigma_rad / g) ** 2])
-        self._F2 = np.eye(2)
-        self._qs = np.concatenate([np.array(cfg.state_noise_psd, dtype=np.float64),
-                                   np.zeros(3)])
-        # work arrays
-        self._Phi = np.empty((6, 6))
-        self._Gam = np.empty((6, 1))
-        self._Qd = np.empty((6, 6))
-        self._Phi_r = np.empty((6, 6))
-        self._Gam_r = np.empty(6)
-        self._Qd_r = np.empty((6, 6))
-        self._s = np.empty(6)
-        self._sb = np.empty(6)
-        self._Qf = np.empty((1, 1))
-        self._ots = np.empty(6 + 36 + 1 + 1 + 6 + 6 + 36)
-        self._oin = np.empty(3)
-        self._grad = np.empty(3)
-        self._y2 = np.empty(2)
-        self._hx2 = np.empty(2)
-        self._Pp = np.empty((3, 3))
-        self._xr = np.empty(3)
-        self._Pr = np.empty((3, 3))
-        self._Qt = np.zeros((6, 6))
-        self._fr = np.empty(2)
-        self._Pfr = np.empty((2, 2))
-        self._nu2 = np.empty(2)
-        self._sd2 = np.empty(2)
-        self._ra2 = np.empty(2)
+        self._k = k = load_kernels(_KERNEL)
+        self._cfgv = pack_config(sensors, cfg)
+        self.st = np.zeros(k.N_STATE)
         self.started = False
-        self.q_com = 0.0
 
     def rod_command(self, cmd_rad: float) -> float:
         """Rod command (m) of a surface command: over the rod gain, clipped to the stroke (as the
@@ -165,112 +173,68 @@ class ServoFilters:
     def start(self, cmd_rad: float, y_rod_m: float) -> None:
         """(Re)start on a sample: the rod at rest where its sensor says, the reference model on
         it; no fault estimate yet."""
-        c = self.cfg
-        self.q_com = self.rod_command(cmd_rad)
+        c, k = self.cfg, self._k
         sig = [self.sensors.rod_sigma_m, c.velocity_init_sigma_mps, c.pressure_init_sigma,
                *c.reference_init_sigma]
-        P0 = np.diag(np.square(sig))
-        # IOTSEKF over [x, r]: the rod at rest where its sensor says, the reference on it
-        self.x_bar = np.array([y_rod_m, 0.0, 0.0, y_rod_m, 0.0, 0.0])
-        self.P_bar = P0.copy()
-        self.f = np.zeros(1)
-        self.Pf = np.array([[c.fault_init_sigma ** 2]])
-        self.V = np.zeros((6, 1))
-        self.x_hat = self.x_bar.copy()
-        self.Px = P0.copy()
-        # RTS-EKF: the nominal servo x (its reference model r_nom carried, not estimated)
-        self.x_nom = self.x_bar[:3].copy()
-        self.r_nom = self.x_bar[3:].copy()
-        self.P_nom = P0[:3, :3].copy()
-        self.f_out = np.zeros(2)
+        P0 = np.diag(np.square(sig)).ravel()
+        x0 = np.array([y_rod_m, 0.0, 0.0, y_rod_m, 0.0, 0.0])
+        st = self.st
+        st[:] = 0.0
+        st[k.S_XBAR:k.S_XBAR + 6] = x0
+        st[k.S_PBAR:k.S_PBAR + 36] = P0
+        st[k.S_PF] = c.fault_init_sigma ** 2
+        st[k.S_XHAT:k.S_XHAT + 6] = x0
+        st[k.S_PX:k.S_PX + 36] = P0
+        # RTS-EKF: the nominal servo [x, r] (m = p = 2: propagated, never corrected)
+        st[k.S_XNOM:k.S_XNOM + 6] = x0
+        st[k.S_PNOM:k.S_PNOM + 36] = P0
+        st[k.S_XE:k.S_XE + 6] = x0
+        st[k.S_XL:k.S_XL + 6] = x0
+        st[k.S_QCOM] = self.rod_command(cmd_rad)
+        st[k.S_QPREV] = math.nan
+        st[k.S_JIT2] = 0.0
         self.started = True
 
     def step(self, dt_s: float, cmd_rad: float, y_rod_m: float, y_surf_rad: float,
              out: np.ndarray) -> bool:
         """One SURF interval of both filters; fills ``out`` (N_OUT,). False on a numerical
         failure (the filters keep their previous state; the caller restarts them)."""
-        c = self.cfg
-        mk = self._model
-        prm = self.prm
-        qc0 = self.q_com
-        qc1 = self.rod_command(cmd_rad)
-        n_sub = max(1, math.ceil(dt_s / c.substep_s - 1e-9))
-        # the reported command took effect command_lead_s before its sample instant
-        knee = max(dt_s - c.command_lead_s, 0.0)
-        qv = c.valve_noise_psd
-        f0 = float(self.f[0])
-        # IOTSEKF: linearise along the blended estimate with the fault held (Lu2017 eqs.
-        # 19-20, note 1 of filters/iotsekf.py); propagate the bias-free state with f = 0 (17)
-        s, sb = self._s, self._sb
-        s[:] = self.x_hat
-        if c.command_step_noise:
-            mk.command_timing_noise(s, qc0, qc1, f0, dt_s, n_sub, prm, self._Qt)
-        mk.propagate(s, qc0, qc1, f0, dt_s, knee, n_sub, prm, True, qv, self._qs,
-                     self._Phi, self._Gam[:, 0], self._Qd)
-        if c.command_step_noise:
-            self._Qd += self._Qt
-            self._Qt[:, :] = 0.0
-        if c.bias_free_from_blend:
-            # x_bar_{k|k-1} + U f_hat = the nonlinear prediction of x_hat (papers-notes,
-            # Lu2017 eq. 17): x_bar propagated = F(x_hat, f_hat) - (Phi V + Gamma) f_hat
-            sb[:] = s - (self._Phi @ self.V[:, 0] + self._Gam[:, 0]) * f0
-        else:  # eq. 17 as printed: the bias-free state propagated with f^i = 0
-            sb[:] = self.x_bar
-            mk.propagate(sb, qc0, qc1, 0.0, dt_s, knee, n_sub, prm, False, qv, self._qs,
-                         self._Phi_r, self._Gam_r, self._Qd_r)
-        rf = c.fault_rate_sigma * dt_s
-        self._Qf[0, 0] = rf * rf
-        y1 = np.array([y_rod_m])
-        code = self._iots.step(sb.copy(), self._Phi, self._Gam, self._Qd, self._Qf,
-                               self.x_bar, self.P_bar, self.f, self.Pf, self.V, self._H1, y1,
-                               self._R1, c.gate_sigma, self._ots, self._oin)
-        if code != 0:
-            return False
-        o = self._ots
-        self.x_bar = o[0:6].copy()
-        self.P_bar = o[6:42].reshape(6, 6).copy()
-        self.f = o[42:43].copy()
-        self.Pf = o[43:44].reshape(1, 1).copy()
-        self.V = o[44:50].reshape(6, 1).copy()
-        self.x_hat = o[50:56].copy()
-        self.Px = o[56:92].reshape(6, 6).copy()
-        # RTS-EKF: the nominal servo (no input fault, eq. 38), P by eq. 39 on the plant block
-        # (the reference states are given to it), eqs. 40-48
-        s[:3] = self.x_nom
-        s[3:] = self.r_nom
-        mk.propagate(s, qc0, qc1, 0.0, dt_s, knee, n_sub, prm, True, qv, self._qs, self._Phi_r,
-                     self._Gam_r, self._Qd_r)
-        self._rts.predict_covariance(self.P_nom, np.ascontiguousarray(self._Phi_r[:3, :3]),
-                                     np.ascontiguousarray(self._Qd_r[:3, :3]), self._Pp)
-        xr_pred = s[:3].copy()
-        g = self.sensors.rod_gain_radpm
-        y_surf_m = y_surf_rad / g
-        self._y2[0] = y_rod_m
-        self._y2[1] = y_surf_m
-        self._hx2[0] = xr_pred[0]
-        self._hx2[1] = xr_pred[0]
-        ok = self._rts.update(xr_pred, self._Pp, self._hx2, self._H2, self._F2, self._y2,
-                              self._R2, c.gate_sigma, self._xr, self._Pr, self._fr, self._Pfr,
-                              self._nu2, self._sd2, self._ra2)
-        if not ok:
-            return False
-        self.x_nom = self._xr.copy()
-        self.r_nom = s[3:].copy()
-        self.P_nom = self._Pr.copy()
-        self.f_out = self._fr.copy()
-        self.q_com = qc1
-        # the valve command the IOTSEKF's estimate implies: u_NDI(x_hat) + f^i
-        s[:] = self.x_hat
-        u = mk.ndi(s, qc1, prm, self._grad) + float(self.f[0])
-        out[O_F_IN] = float(self.f[0])
-        out[O_U] = u
-        out[O_X1:O_X3 + 1] = self.x_hat[:3]
-        out[O_N1:O_N3 + 1] = self.x_nom
-        out[O_F_ROD] = float(self.f_out[0])
-        out[O_F_SURF] = float(self.f_out[1])
-        out[O_NU] = float(self._oin[0])
-        out[O_S] = float(self._oin[1])
-        out[O_Q_COM] = qc1
-        out[O_Y_ROD] = y_rod_m
-        out[O_Y_SURF] = y_surf_m
-        return True
+        code = self._k.surface_step(self.st, dt_s, cmd_rad, y_rod_m, y_surf_rad, self.prm,
+                                    self._cfgv, out)
+        return bool(code == 0)
+
+    # views of the packed state (for views, tests and evaluations)
+    @property
+    def x_hat(self) -> np.ndarray:
+        """(6,) the IOTSEKF's blended estimate of [q, q_dot, dP/P_s, r, r', r'']."""
+        return self.st[self._k.S_XHAT:self._k.S_XHAT + 6]
+
+    @property
+    def f(self) -> float:
+        """The IOTSEKF's input-fault estimate (valve units)."""
+        return float(self.st[self._k.S_F])
+
+    @property
+    def Px(self) -> np.ndarray:
+        """(6, 6) its covariance."""
+        return self.st[self._k.S_PX:self._k.S_PX + 36].reshape(6, 6)
+
+    @property
+    def x_nom(self) -> np.ndarray:
+        """(6,) the RTS-EKF's nominal servo."""
+        return self.st[self._k.S_XNOM:self._k.S_XNOM + 6]
+
+    @property
+    def P_nom(self) -> np.ndarray:
+        """(6, 6) its covariance."""
+        return self.st[self._k.S_PNOM:self._k.S_PNOM + 36].reshape(6, 6)
+
+    @property
+    def f_out(self) -> np.ndarray:
+        """(2,) the RTS-EKF's output faults of the rod and surface sensors (m of rod)."""
+        return self.st[self._k.S_FOUT:self._k.S_FOUT + 2]
+
+    @property
+    def q_com(self) -> float:
+        """The rod command of the last sample (m)."""
+        return float(self.st[self._k.S_QCOM])
