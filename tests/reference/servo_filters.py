@@ -16,6 +16,8 @@ import numpy as np
 
 from gcs_monitor.families.actuators.servo_filters import ServoFilterConfig, ServoSensors
 from gcs_monitor.filters.iotsekf import iotsekf_init, iotsekf_step
+
+SPREAD_PER_MEDIAN = math.sqrt(1.5) / (0.6744897501960817 * math.sqrt(6.0))
 from gcs_monitor.filters.three_step import three_step_predict, three_step_update
 from gcs_monitor.models.servo import (
     ServoLoopParams,
@@ -52,7 +54,7 @@ class ReferenceServoFilters:
         self.x_nom, self.P_nom = x0.copy(), P0.copy()
         self.q_com = self.rod_command(cmd_rad)
         self.q_prev = math.nan
-        self.jit2 = 0.0
+        self.d2: list[float] = []  # |second differences| of the command seen
         self.x_early, self.x_late = x0.copy(), x0.copy()
 
     def step(self, dt: float, cmd_rad: float, y_rod: float, y_surf_rad: float
@@ -62,11 +64,13 @@ class ReferenceServoFilters:
         n_sub = max(1, math.ceil(dt / c.substep_s - 1e-9))
         knee = max(dt - c.command_lead_s, 0.0)
         qs = (*c.state_noise_psd, 0.0, 0.0, 0.0)
-        jit2 = self.jit2
+        jit = 0.0
         if c.command_jitter_noise and self.q_prev == self.q_prev:
-            d2 = qc1 - 2.0 * qc0 + self.q_prev
-            jit2 += min(1.0, dt / c.command_jitter_window_s) * (d2 * d2 - jit2)
-        jit = math.sqrt(max(jit2, 0.0) / 4.0)
+            d2 = abs(qc1 - 2.0 * qc0 + self.q_prev)
+            n = max(3, min(64, round(c.command_jitter_window_s / dt)))
+            seen = [d2] + self.d2[::-1][:n - 1]
+            jit = SPREAD_PER_MEDIAN * float(np.median(seen))
+            self.d2.append(d2)
         s = self.iots
         f0 = float(s.f[0])
         Qt = np.zeros((6, 6))
@@ -104,7 +108,7 @@ class ReferenceServoFilters:
         self.x_late = propagate(self.x_late, qc0, qc0, 0.0, dt, n_sub, prm).s
         env = self.x_early[0] - self.x_late[0]
         self.iots, self.x_nom, self.P_nom = new, rts.x, rts.P
-        self.q_prev, self.q_com, self.jit2 = qc0, qc1, jit2
+        self.q_prev, self.q_com = qc0, qc1
         x = new.x
         _, _, rddd = reference_model_derivative(x[3], x[4], x[5], qc1, self.loop)
         u = ndi_control(x[0], x[1], x[2], (x[3], x[4], x[5], rddd), self.servo, self.loop)

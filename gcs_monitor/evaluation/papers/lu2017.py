@@ -520,8 +520,9 @@ def lu2017_calibration(out_dir: Path, jobs: int = 1, quick: bool = False) -> str
     write_csv(Path(out_dir) / "lu2017_calibration.csv", header, rows)
     return (f"{len(runs)} fault-free runs (servo campaign mix, seed {CAL_SEED}, and "
             f"lu2017_s0); J over the detectors' {ServoTierConfig().fdi.input.window_s:g} s "
-            "windows after the filters' warm-up; the unseen-command spread is half the RMS of "
-            "the rod command's second differences (running mean over "
+            "windows after the filters' warm-up; the unseen-command spread is the filters' "
+            "estimate of the command samples the 50 Hz stream did not carry (0.74 x the median "
+            "|second difference| of the rod command over "
             f"{ServoTierConfig().filters.command_jitter_window_s:g} s):\n\n"
             + md_table(header, rows) + "\n")
 

@@ -42,8 +42,12 @@ S_FOUT = S_PNOM + N * N
 S_PFOUT = S_FOUT + 2
 S_QCOM = S_PFOUT + 4  # the rod command of the last sample
 S_QPREV = S_QCOM + 1  # the one before (NaN until known)
-S_JIT2 = S_QPREV + 1  # running mean of the command's squared second differences
-S_XE = S_JIT2 + 1  # the nominal servo with every command change at the start of its interval
+S_JN = S_QPREV + 1  # |second differences| of the command seen (count, ring index)
+S_JIDX = S_JN + 1
+S_JBUF = S_JIDX + 1  # the last JIT_MAX |second differences| of the rod command
+JIT_MAX = 64
+S_XE = S_JBUF + JIT_MAX  # the nominal servo with every command change at the start of its
+# interval (S_XE) and at its end (S_XL)
 S_XL = S_XE + N  # ... and at its end
 N_STATE = S_XL + N
 # configuration vector
@@ -55,6 +59,7 @@ N_CFG = 16
  O_Y_ROD, O_Y_SURF, O_SF_ROD, O_SF_D, O_JIT) = range(18)
 N_OUT = 18
 OK = 0
+SPREAD_PER_MEDIAN = math.sqrt(1.5) / (0.6744897501960817 * math.sqrt(6.0))
 
 
 @jit
@@ -102,6 +107,32 @@ def command_noise(s0, qc0, qc1, jit, f_in, dt, n_sub, prm, step_noise, jit_noise
 
 
 @jit
+def unseen_spread(st, qc0, qc1, dt, cfg):
+    """The spread of the command samples the SURF stream did not carry (m of rod) and the ring
+    buffer's next count and index (-1, -1: no new second difference).
+
+    ``SPREAD_PER_MEDIAN`` x the median of ``|q_k - 2 q_{k-1} + q_{k-2}|`` over the jitter window
+    (the newest included): for a command with white jitter of sigma per autopilot sample at
+    twice the SURF rate, the second differences of the samples seen have sigma ``sqrt(6)``
+    sigma (median ``0.674 sqrt(6)`` sigma) and an unseen sample lies ``sqrt(1.5)`` sigma off
+    the line through its neighbours; the median ignores the isolated pairs a command step
+    leaves (the step noise covers those)."""
+    qprev = st[S_QPREV]
+    if cfg[C_JIT_NOISE] == 0.0 or qprev != qprev:
+        return 0.0, -1, -1
+    jn = int(st[S_JN])
+    jidx = int(st[S_JIDX])
+    n = max(3, min(JIT_MAX, int(round(cfg[C_JIT_WINDOW] / dt))))
+    vals = np.empty(n)
+    vals[0] = abs(qc1 - 2.0 * qc0 + qprev)
+    have = min(jn, n - 1)
+    for i in range(have):  # the newest ring entries, backwards from the last written
+        vals[1 + i] = st[S_JBUF + (jidx - 1 - i) % JIT_MAX]
+    m = np.median(vals[:1 + have])
+    return SPREAD_PER_MEDIAN * m, min(jn + 1, JIT_MAX), (jidx + 1) % JIT_MAX
+
+
+@jit
 def surface_step(st, dt, cmd_rad, y_rod, y_surf_rad, prm, cfg, out):
     """One SURF interval of one surface's IOTSEKF and RTS-EKF, in place on ``st``
     (``servo_filters.ServoFilters.step``). Returns 0, or the failing filter's code (1-2: the
@@ -118,13 +149,7 @@ def surface_step(st, dt, cmd_rad, y_rod, y_surf_rad, prm, cfg, out):
     qs[0] = cfg[C_QS0]
     qs[1] = cfg[C_QS1]
     qs[2] = cfg[C_QS2]
-    jit2 = st[S_JIT2]
-    qprev = st[S_QPREV]
-    if cfg[C_JIT_NOISE] != 0.0 and qprev == qprev:
-        d2 = qc1 - 2.0 * qc0 + qprev
-        a = min(1.0, dt / cfg[C_JIT_WINDOW])
-        jit2 += a * (d2 * d2 - jit2)
-    jitv = math.sqrt(max(jit2, 0.0) / 4.0)
+    jitv, jn, jidx = unseen_spread(st, qc0, qc1, dt, cfg)
     # IOTSEKF over [x, r]
     x_bar = st[S_XBAR:S_XBAR + N].copy()
     P_bar = st[S_PBAR:S_PBAR + N * N].copy().reshape((N, N))
@@ -230,9 +255,12 @@ def surface_step(st, dt, cmd_rad, y_rod, y_surf_rad, prm, cfg, out):
     for i in range(2):
         for j in range(2):
             st[S_PFOUT + 2 * i + j] = Pfr[i, j]
+    if jn >= 0:  # a new second difference enters the ring
+        st[S_JBUF + int(st[S_JIDX])] = abs(qc1 - 2.0 * qc0 + st[S_QPREV])
+        st[S_JN] = jn
+        st[S_JIDX] = jidx
     st[S_QPREV] = qc0
     st[S_QCOM] = qc1
-    st[S_JIT2] = jit2
     for i in range(N):
         st[S_XE + i] = xe[i]
         st[S_XL + i] = xl[i]

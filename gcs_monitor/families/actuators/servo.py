@@ -120,9 +120,9 @@ def output_channels(threshold_sigma: float) -> ChannelSetConfig:
 # Thresholds: 1.5 x the worst fault-free residual RMS over fault-free runs of the servo campaign
 # (every manoeuvre, turbulence; calibration seeds, not the evaluation seeds) and the Lu2017
 # fault-free preset: `gcs-monitor evaluate --experiment lu2017_calibration` prints them.
-INPUT_THRESHOLD = 0.017
-INPUT_PER_JITTER = 6.8  # valve per m of unseen-command spread
-OUTPUT_THRESHOLD_SIGMA = 3.2
+INPUT_THRESHOLD = 0.026
+INPUT_PER_JITTER = 9.7  # valve per m of unseen-command spread
+OUTPUT_THRESHOLD_SIGMA = 3.6
 OUTPUT_PER_JITTER = 0.0  # sigmas per m: the RTS-EKF's P^f carries the command uncertainty
 
 
@@ -304,7 +304,8 @@ class _SurfaceFdi:
         n = max(self.onset_n, round(tier.cfg.classifier.recent_s / tier.period_s))
         h = self.hist.last(n)
         w = ServoWindow(dt_s=tier.period_s, f_in=h[:, O_F_IN], u=h[:, O_U], y_rod=h[:, O_Y_ROD],
-                        f_rod=h[:, O_F_ROD], f_surf=h[:, O_F_SURF],
+                        f_rod=h[:, O_F_ROD], f_surf=h[:, O_F_SURF], x_nom=h[:, O_N1],
+                        valve_rate_mps=tier.valve_rate_mps,
                         stroke_m=tier.cfg.sensors.rod_stroke_m,
                         rod_sigma_m=tier.cfg.sensors.rod_sigma_m)
         return classify_servo(w, tier.cfg.classifier,
@@ -346,6 +347,8 @@ class ServoTier:
                         for _ in SURFACES]
         self._period = SamplePeriod()
         self.period_s = math.nan  # SURF period the windows were sized with
+        # rod rate per unit valve command at no load, phi_n / A_p (Lu2017 eq. 4)
+        self.valve_rate_mps = cfg.servo.max_valve_flow_m3ps / cfg.servo.piston_area_m2
         self._fdi: list[_SurfaceFdi] | None = None
         self._last_us: int | None = None  # instant of the last SURF sample stepped on
         self._seen = False  # SURF has been in the telemetry

@@ -27,13 +27,19 @@ The tests, in this order (each threshold a documented parameter of
    spurious sinusoid in the servo loop) holding more than ``osc_power_fraction`` of its
    detrended variance over at least ``osc_min_cycles`` periods. A liquid OFC *adds* a
    zero-mean sinusoid to the valve command, so ``f^i`` is that sinusoid and ``u`` carries the
-   loop's action besides; a solid OFC *replaces* the command, so ``u`` is the zero-mean sinusoid
-   and ``f^i = u - u_NDI`` carries the loop's (ignored) action, offset and all. A sinusoid
-   without offset at the line's frequency is fitted to both; the one it explains better names
-   the case (solid when the valve command's relative residual is below ``solid_fit_ratio``
-   times the fault estimate's); magnitude: that fit's amplitude (valve units), with the
-   frequency; an amplitude below ``osc_min_amplitude`` is not named. With a constant command at
-   rest (``u_NDI`` zero-mean) the two read alike: the liquid case is kept.
+   loop's action besides -- and the rod still follows its command; a solid OFC *replaces* the
+   command, so ``u`` is the zero-mean sinusoid, ``f^i = u - u_NDI`` carries the loop's
+   (ignored) action, and the rod no longer follows. When the command moved in the window (the
+   nominal servo's spread above ``command_motion_sigmas`` sensor sigmas) the rod is regressed
+   on the nominal servo and the sinusoid: a coefficient below 1/2 is a solid OFC. Without
+   command motion a sinusoid without offset is fitted to ``f^i`` and to ``u``, and the one it
+   explains better names the case (solid when the valve command's relative residual is below
+   ``solid_fit_ratio`` times the fault estimate's; with the loop at rest the two read alike and
+   the liquid case is kept). Magnitude: the amplitude (valve units) of the named signal's fit
+   -- of a solid OFC found by the regression, the rod's oscillation amplitude converted through
+   the bypassed loop, ``2 pi f a_rod / v_max`` (the rod integrates the valve flow; the
+   hydraulic mode at ~9 Hz adds ~1/(1 - (f/9 Hz)^2), 12 % at 3 Hz) -- with the frequency; an
+   amplitude below ``osc_min_amplitude`` is not named.
 5. otherwise **unknown**, on the axis (input or output) whose detector is further above its
    threshold.
 """
@@ -84,9 +90,12 @@ class ServoClassifierConfig:
                                   "onset", positive=True)
     osc_min_amplitude: float = param(0.01, "smallest OFC amplitude worth naming (valve units)",
                                      positive=True)
-    solid_fit_ratio: float = param(0.5, "a solid OFC when the valve command's sinusoid fit "
-                                   "residual is below this fraction of the fault estimate's",
-                                   positive=True)
+    command_motion_sigmas: float = param(10.0, "the nominal servo must move this many rod-sensor "
+                                         "sigmas (std) in the window for the liquid/solid test "
+                                         "on the command", positive=True)
+    solid_fit_ratio: float = param(0.5, "without command motion: a solid OFC when the valve "
+                                   "command's sinusoid fit residual is below this fraction of "
+                                   "the fault estimate's", positive=True)
 
 
 @dataclass(frozen=True, slots=True)
@@ -100,6 +109,9 @@ class ServoWindow:
     u : (N,) valve command it implies, ``u_NDI(x_hat) + f^i``
     y_rod : (N,) rod position sensor (m)
     f_rod, f_surf : (N,) RTS-EKF output faults of the rod and surface sensors (m of rod)
+    x_nom : (N,) the nominal servo's rod position (the RTS-EKF's state: the response to the
+        command)
+    valve_rate_mps : rod rate per unit valve command at no load (``phi_n / A_p``)
     stroke_m : rod stroke (m)
     rod_sigma_m : rod sensor noise (m)
     """
@@ -110,8 +122,10 @@ class ServoWindow:
     y_rod: np.ndarray
     f_rod: np.ndarray
     f_surf: np.ndarray
+    x_nom: np.ndarray
     stroke_m: float
     rod_sigma_m: float
+    valve_rate_mps: float = 1.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -237,7 +251,16 @@ def classify_servo(w: ServoWindow, cfg: ServoClassifierConfig, *, input_ratio: f
             f_hz * t[-1] >= cfg.osc_min_cycles:
         amp_f, res_f = _sine_fit(t, w.f_in, f_hz)
         amp_u, res_u = _sine_fit(t, w.u, f_hz)
-        solid = res_u < cfg.solid_fit_ratio * res_f
+        fit = _follows_command(t, w.y_rod, w.x_nom, f_hz, cfg.command_motion_sigmas
+                               * w.rod_sigma_m)
+        if fit is not None:
+            follows, rod_amp = fit
+            solid = not follows
+            # the loop bypassed, the rod integrates the valve flow: A = 2 pi f a_rod / v_max
+            if solid:
+                amp_u = 2.0 * math.pi * f_hz * rod_amp / w.valve_rate_mps
+        else:
+            solid = res_u < cfg.solid_fit_ratio * res_f
         amp = amp_u if solid else amp_f
         if amp >= cfg.osc_min_amplitude:
             case = "solid_ofc" if solid else "liquid_ofc"
@@ -251,6 +274,21 @@ def classify_servo(w: ServoWindow, cfg: ServoClassifierConfig, *, input_ratio: f
                           f"input fault {mag:.3f} (valve), class pending")
     return ServoClass("unknown", "output", FaultType.UNKNOWN, dev,
                       f"output fault {dev * 1e3:+.1f} mm off the nominal servo, class pending")
+
+
+def _follows_command(t: np.ndarray, y: np.ndarray, x_nom: np.ndarray, f_hz: float,
+                     min_motion_m: float) -> tuple[bool, float] | None:
+    """Does the rod still follow its command under an oscillation? The least-squares fit
+    ``y ~ a + b x_nom + c sin + d cos`` at the oscillation's frequency: ``b`` near 1 when the
+    oscillation adds to the loop (liquid), near 0 when it replaced the command (solid); with
+    the rod's oscillation amplitude ``hypot(c, d)``. None when the nominal servo moved too
+    little for ``b`` to say (its spread below ``min_motion_m``)."""
+    if float(np.std(x_nom)) < min_motion_m:
+        return None
+    w = 2.0 * math.pi * f_hz
+    A = np.column_stack([np.ones_like(t), x_nom, np.sin(w * t), np.cos(w * t)])
+    coef, *_ = np.linalg.lstsq(A, y, rcond=None)
+    return bool(coef[1] > 0.5), math.hypot(coef[2], coef[3])
 
 
 def _steepest_rate(t: np.ndarray, y: np.ndarray, nr: int) -> float:

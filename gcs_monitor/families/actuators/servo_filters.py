@@ -92,9 +92,9 @@ class ServoFilterConfig:
     command_jitter_noise: bool = param(True, "a command that jumps between samples (faster "
                                        "than the SURF stream) adds the covariance of the "
                                        "unseen samples in between (ours, see ServoFilters)")
-    command_jitter_window_s: float = param(0.5, "time constant of the running mean of the "
-                                           "command's squared second differences",
-                                           positive=True)
+    command_jitter_window_s: float = param(0.4, "window of the median of the command's second "
+                                           "differences that measures the unseen samples' "
+                                           "spread", positive=True)
     velocity_init_sigma_mps: float = param(0.05, "initial rod velocity sigma", positive=True)
     pressure_init_sigma: float = param(0.05, "initial dP/P_s sigma", positive=True)
     gate_sigma: float = param(3.0, "gate of the innovation test ratios (reporting)",
@@ -142,7 +142,8 @@ class ServoFilters:
 
     Per interval: the covariance of the command's unknown profile inside it (a change at an
     unknown instant; unseen samples when the command jumps between samples, their spread from
-    the running mean of its squared second differences) is evaluated at the IOTSEKF's estimate
+    the median of its second differences, ``_servo_filters_jit.unseen_spread``) is evaluated
+    at the IOTSEKF's estimate
     and added to both filters' process noise; the IOTSEKF propagates its blended estimate with
     the fault held (Phi, Gamma, Q_d along it) and predicts the bias-free state from it
     (``bias_free_from_blend``); the RTS-EKF propagates the nominal servo. The sigma of the rod
@@ -192,7 +193,6 @@ class ServoFilters:
         st[k.S_XL:k.S_XL + 6] = x0
         st[k.S_QCOM] = self.rod_command(cmd_rad)
         st[k.S_QPREV] = math.nan
-        st[k.S_JIT2] = 0.0
         self.started = True
 
     def step(self, dt_s: float, cmd_rad: float, y_rod_m: float, y_surf_rad: float,
