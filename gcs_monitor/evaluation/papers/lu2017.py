@@ -32,7 +32,7 @@ Commands and measured tables: docs/results.md, "Actuator family: Lu2017 servo le
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -41,6 +41,7 @@ import numpy as np
 
 from gcs_monitor.evaluation.report import fmt_fixed, md_table, pyplot, write_csv
 from gcs_monitor.evaluation.runner import run_parallel
+from gcs_monitor.evaluation.runs import feed_packets
 from gcs_monitor.families.actuators.servo import (
     SURFACE_KIND,
     SURFACES,
@@ -66,7 +67,7 @@ from gcs_monitor.families.actuators.servo_filters import (
     O_Y_ROD,
 )
 from gcs_monitor.families.base import FamilyContext
-from gcs_monitor.fdi.config import ChannelSetConfig, samples_in
+from gcs_monitor.fdi.config import ChannelSetConfig, window_samples
 from gcs_monitor.fdi.events import AlarmEvent, AlarmKind, AlarmState
 from gcs_monitor.models.servo import ndi_control, reference_model_derivative
 from gcs_monitor.monitor import Monitor
@@ -80,7 +81,6 @@ LU2017_PRESETS = tuple(f"lu2017_s{i}" for i in range(6))
 SCENARIO_LABEL = {0: "fault-free", 1: "liquid OFC", 2: "solid OFC", 3: "liquid jam",
                   4: "solid jam", 5: "runaway"}
 T_FAULT_S = 12.0  # Lu2017 Table 1
-CHUNK_PACKETS = 64
 BASELINE = "cmd_minus_pos"
 CAL_SEED = 1  # calibration runs (thresholds) and evaluation runs never share a seed
 EVAL_SEED = 2
@@ -170,17 +170,6 @@ class _Truth:
         self.at[t_us] = (sv.x[:, :3].copy(), nom.x[:, :3].copy(), f_in)
 
 
-def _feed(mon: Monitor, packets: Iterable[bytes]) -> None:
-    buf: list[bytes] = []
-    for pkt in packets:
-        buf.append(pkt)
-        if len(buf) >= CHUNK_PACKETS:
-            mon.feed(b"".join(buf))
-            buf = []
-    mon.feed(b"".join(buf))
-    mon.finish()
-
-
 def simulate_servo(sc: Scenario, cfg: ServoTierConfig | None = None) -> ServoRun:
     """Run ``sc`` through the MAVLink path into a monitor whose one family is the servo tier;
     returns the per-sample record (see :class:`ServoRun`)."""
@@ -204,7 +193,7 @@ def simulate_servo(sc: Scenario, cfg: ServoTierConfig | None = None) -> ServoRun
         cmp_.append(np.asarray(frame.surf_cmd_rad) - np.asarray(frame.surf_pos_rad))
 
     mon = Monitor(families_for=families, on_step=on_step)
-    _feed(mon, (pkt for _, _, pkt in iter_run(sc, simulation_factory=truth.factory,
+    feed_packets(mon, (pkt for _, _, pkt in iter_run(sc, simulation_factory=truth.factory,
                                                  on_step=truth.step)))
     t_us = np.array(t_list, dtype=np.int64)
     gain = truth.sim.servos.geo.rod_gain_radpm
@@ -276,7 +265,7 @@ def baseline_events(run: ServoRun, threshold_rad: float, ch: ChannelSetConfig) -
         tuple[int, float]]:
     """The baseline's raises: (surface, time) when the RMS of command minus surface position
     over the same window as the tier's exceeds ``threshold_rad`` for the same share of it."""
-    n = samples_in(ch.window_s, run.period_s)
+    n = window_samples(ch, run.period_s)
     need = max(1, round(ch.detect_ratio * n))
     out: list[tuple[int, float]] = []
     for k in range(3):
@@ -439,7 +428,7 @@ def detector_series(run: ServoRun, cfg: ServoTierConfig | None = None
     baseline's RMS of command minus position, and the unseen-command spread the tier schedules
     its thresholds on (m), aligned on the detectors' windows."""
     cfg = cfg or ServoTierConfig()
-    n = samples_in(cfg.fdi.input.window_s, run.period_s)
+    n = window_samples(cfg.fdi.input, run.period_s)
     keep = run.t_s[n - 1:] >= PRE_FROM_S
     out = []
     for k in range(3):

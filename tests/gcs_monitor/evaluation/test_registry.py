@@ -19,6 +19,7 @@ NAMES = {
     "wan2018_campaign_restart_literal_nrz", "wan2018_campaign_extensions_literal_nrz",
     "wan2018_campaign_scheduled_literal_nrz", "wan2018_campaign_lateral_literal_nrz",
     "wan2018_campaign_lateral_only_literal_nrz",
+    "lu2017", "lu2017_calibration", "lu2017_campaign",  # added with the actuator family
 }
 
 

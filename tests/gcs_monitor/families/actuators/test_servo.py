@@ -257,8 +257,9 @@ def test_unavailable_without_surf_and_reasons_when_not_judging() -> None:
 
 
 def test_windows_come_from_the_measured_surf_period() -> None:
-    """At 25 Hz SURF the 0.2 s windows are 5 samples (at 50 Hz, 10)."""
-    for hz, n in ((50.0, 10), (25.0, 5)):
+    """The 0.2 s windows are 10 samples at 50 Hz SURF and 20 at 100 Hz; at 25 Hz they hold the
+    fdi layer's least 10 samples (0.4 s)."""
+    for hz, n in ((50.0, 10), (100.0, 20), (25.0, 10)):
         tier, _, _ = run_tier(simulate(duration_s=3.0, surf_hz=hz))
         assert tier.period_s == pytest.approx(1.0 / hz)
         assert tier._fdi is not None
