@@ -16,8 +16,6 @@ import numpy as np
 
 from gcs_monitor.families.actuators.servo_filters import ServoFilterConfig, ServoSensors
 from gcs_monitor.filters.iotsekf import iotsekf_init, iotsekf_step
-
-SPREAD_PER_MEDIAN = math.sqrt(1.5) / (0.6744897501960817 * math.sqrt(6.0))
 from gcs_monitor.filters.three_step import three_step_predict, three_step_update
 from gcs_monitor.models.servo import (
     ServoLoopParams,
@@ -68,8 +66,9 @@ class ReferenceServoFilters:
         if c.command_jitter_noise and self.q_prev == self.q_prev:
             d2 = abs(qc1 - 2.0 * qc0 + self.q_prev)
             n = max(3, min(64, round(c.command_jitter_window_s / dt)))
-            seen = [d2] + self.d2[::-1][:n - 1]
-            jit = SPREAD_PER_MEDIAN * float(np.median(seen))
+            seen = sorted([d2] + self.d2[::-1][:n - 1])
+            kept = seen[:-2] if len(seen) > 4 else seen
+            jit = 0.5 * math.sqrt(sum(x * x for x in kept) / len(seen))
             self.d2.append(d2)
         s = self.iots
         f0 = float(s.f[0])

@@ -59,7 +59,8 @@ N_CFG = 16
  O_Y_ROD, O_Y_SURF, O_SF_ROD, O_SF_D, O_JIT) = range(18)
 N_OUT = 18
 OK = 0
-SPREAD_PER_MEDIAN = math.sqrt(1.5) / (0.6744897501960817 * math.sqrt(6.0))
+SPREAD_PER_RMS = 0.5  # sqrt(1.5) / sqrt(6)
+JIT_TRIM = 2  # largest second differences left out of the spread (a step's pair)
 
 
 @jit
@@ -111,12 +112,13 @@ def unseen_spread(st, qc0, qc1, dt, cfg):
     """The spread of the command samples the SURF stream did not carry (m of rod) and the ring
     buffer's next count and index (-1, -1: no new second difference).
 
-    ``SPREAD_PER_MEDIAN`` x the median of ``|q_k - 2 q_{k-1} + q_{k-2}|`` over the jitter window
-    (the newest included): for a command with white jitter of sigma per autopilot sample at
-    twice the SURF rate, the second differences of the samples seen have sigma ``sqrt(6)``
-    sigma (median ``0.674 sqrt(6)`` sigma) and an unseen sample lies ``sqrt(1.5)`` sigma off
-    the line through its neighbours; the median ignores the isolated pairs a command step
-    leaves (the step noise covers those)."""
+    ``SPREAD_PER_RMS`` x the RMS of ``|q_k - 2 q_{k-1} + q_{k-2}|`` over the jitter window (the
+    newest included) without its ``JIT_TRIM`` largest values: for a command with white jitter
+    of sigma per autopilot sample at twice the SURF rate, the second differences of the samples
+    seen have sigma ``sqrt(6)`` sigma and an unseen sample lies ``sqrt(1.5)`` sigma off the line
+    through its neighbours; the trim drops the pair of values a command step leaves (the step
+    noise covers those), a one-sample spike keeps its third.
+    """
     qprev = st[S_QPREV]
     if cfg[C_JIT_NOISE] == 0.0 or qprev != qprev:
         return 0.0, -1, -1
@@ -128,8 +130,13 @@ def unseen_spread(st, qc0, qc1, dt, cfg):
     have = min(jn, n - 1)
     for i in range(have):  # the newest ring entries, backwards from the last written
         vals[1 + i] = st[S_JBUF + (jidx - 1 - i) % JIT_MAX]
-    m = np.median(vals[:1 + have])
-    return SPREAD_PER_MEDIAN * m, min(jn + 1, JIT_MAX), (jidx + 1) % JIT_MAX
+    m = 1 + have
+    v = np.sort(vals[:m])
+    keep = m - JIT_TRIM if m > 2 * JIT_TRIM else m
+    acc = 0.0
+    for i in range(keep):
+        acc += v[i] * v[i]
+    return SPREAD_PER_RMS * math.sqrt(acc / m), min(jn + 1, JIT_MAX), (jidx + 1) % JIT_MAX
 
 
 @jit

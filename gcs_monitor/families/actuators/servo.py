@@ -121,8 +121,8 @@ def output_channels(threshold_sigma: float) -> ChannelSetConfig:
 # (every manoeuvre, turbulence; calibration seeds, not the evaluation seeds) and the Lu2017
 # fault-free preset: `gcs-monitor evaluate --experiment lu2017_calibration` prints them.
 INPUT_THRESHOLD = 0.026
-INPUT_PER_JITTER = 9.7  # valve per m of unseen-command spread
-OUTPUT_THRESHOLD_SIGMA = 3.6
+INPUT_PER_JITTER = 9.3  # valve per m of unseen-command spread
+OUTPUT_THRESHOLD_SIGMA = 3.5
 OUTPUT_PER_JITTER = 0.0  # sigmas per m: the RTS-EKF's P^f carries the command uncertainty
 
 

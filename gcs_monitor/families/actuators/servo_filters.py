@@ -92,9 +92,9 @@ class ServoFilterConfig:
     command_jitter_noise: bool = param(True, "a command that jumps between samples (faster "
                                        "than the SURF stream) adds the covariance of the "
                                        "unseen samples in between (ours, see ServoFilters)")
-    command_jitter_window_s: float = param(0.4, "window of the median of the command's second "
-                                           "differences that measures the unseen samples' "
-                                           "spread", positive=True)
+    command_jitter_window_s: float = param(0.4, "window of the (trimmed) RMS of the command's "
+                                           "second differences that measures the unseen "
+                                           "samples' spread", positive=True)
     velocity_init_sigma_mps: float = param(0.05, "initial rod velocity sigma", positive=True)
     pressure_init_sigma: float = param(0.05, "initial dP/P_s sigma", positive=True)
     gate_sigma: float = param(3.0, "gate of the innovation test ratios (reporting)",
@@ -142,7 +142,8 @@ class ServoFilters:
 
     Per interval: the covariance of the command's unknown profile inside it (a change at an
     unknown instant; unseen samples when the command jumps between samples, their spread from
-    the median of its second differences, ``_servo_filters_jit.unseen_spread``) is evaluated
+    the trimmed RMS of its second differences, ``_servo_filters_jit.unseen_spread``) is
+    evaluated
     at the IOTSEKF's estimate
     and added to both filters' process noise; the IOTSEKF propagates its blended estimate with
     the fault held (Phi, Gamma, Q_d along it) and predicts the bias-free state from it
