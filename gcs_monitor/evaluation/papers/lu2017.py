@@ -522,8 +522,8 @@ def lu2017_calibration(out_dir: Path, jobs: int = 1, quick: bool = False) -> str
              f"{th['input_per_jitter']:.3g} valve/m"],
             ["output (f^o or rod - surface, normalised)", "sigma", th["worst_output_calm"],
              th["worst_output"], th["output"], f"{th['output_per_jitter']:.3g} sigma/m"],
-            ["baseline |cmd - pos|", "deg", math.nan, math.degrees(th["worst_baseline_rad"]),
-             math.degrees(th["baseline_rad"]), "-"]]
+            ["baseline: command - position", "deg", math.nan,
+             math.degrees(th["worst_baseline_rad"]), math.degrees(th["baseline_rad"]), "-"]]
     header = ["detector", "unit", "worst J, spread < 1 mm", "worst J", "J_th (1.5x)",
               "growth per m of spread"]
     write_csv(Path(out_dir) / "lu2017_calibration.csv", header, rows)
@@ -587,7 +587,7 @@ def lu2017_campaign(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
               "false isolation [%]", "of which wrong surface [%]", "wrong case [%]",
               "DetD max [s]", "DetD mean [s]", "class delay mean [s]"]
     rows = [_metrics("servo tier (IOTSEKF + RTS-EKF)", tier_f, tier_ff, True),
-            _metrics(f"baseline |cmd - pos| > {math.degrees(th_b):.2f} deg",
+            _metrics(f"baseline: command - position > {math.degrees(th_b):.2f} deg",
                      [(d, "") for d in base_f], base_ff, False)]
     kinds_rows = []
     base_kinds = [k for _, k in tier_f]

@@ -6,11 +6,16 @@ Per SURF sample and surface (aileron, elevator, rudder), :class:`ServoTier`
 * **predict** -- steps the surface's IOTSEKF (input faults: liquid and solid OFC, Lu2017 eqs.
   14-36) and RTS-EKF (output faults: liquid and solid jam, runaway, eqs. 37-48) on the closed
   servo loop (``servo_filters.py``, ``models/servo.py``);
-* **judge** -- windows the input-fault estimate and the output-fault estimate (Wan2018 eq. 18
-  with r = f_hat, the fdi layer's :class:`~gcs_monitor.fdi.residuals.ResidualRms` and
+* **judge** -- windows two detector values per surface (Wan2018 eq. 18 with r = the value, the
+  fdi layer's :class:`~gcs_monitor.fdi.residuals.ResidualRms` and
   :class:`~gcs_monitor.fdi.confirmation.Confirmation` sized by
-  :func:`~gcs_monitor.fdi.config.channel_params` with the measured SURF period), and when either
-  confirms, classifies the surface's fault (``servo_classify.py``) and raises one
+  :func:`~gcs_monitor.fdi.config.channel_params` with the measured SURF period): the input
+  fault estimate ``f_hat^i`` (valve units) against a J_th that grows with the unseen-command
+  spread the filters estimate (``input_per_jitter``: commands that jump between SURF samples
+  leave the model uncertain, papers-notes), and the output fault in sigmas of the RTS-EKF's own
+  ``P^f`` (eq. 43, plus the nominal servo's timing envelope) -- the rod sensor's deviation from
+  the nominal servo or the rod-surface disagreement, the larger; when either confirms, it
+  classifies the surface's fault (``servo_classify.py``) and raises one
   ``actuator_fault`` alarm on ``ChannelId("surface", k, "input" | "output")`` with the case in
   the message, the fault type (oscillation, bias, stuck, runaway) and the magnitude (OFC
   amplitude in valve units, rod-sensor bias or stuck rod position in m, runaway rate in m/s);
