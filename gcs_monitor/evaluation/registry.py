@@ -25,6 +25,7 @@ from gcs_monitor.evaluation.papers import (
     lu2016,
     lu2016_real,
     lu2017,
+    real_flights,
     robustness,
     wan2018,
     wan2018_real,
@@ -38,7 +39,8 @@ SIMULATED: tuple[Callable[[], dict[str, Experiment]], ...] = (
     imu_detection.experiments, wan2018.experiments, campaign.experiments,
     robustness.experiments, lu2017.experiments)
 REAL_DATA: tuple[Callable[[], dict[str, RealDataExperiment]], ...] = (
-    lu2016_real.real_data_experiments, wan2018_real.real_data_experiments)
+    lu2016_real.real_data_experiments, wan2018_real.real_data_experiments,
+    real_flights.real_data_experiments)
 
 
 def _on_data(fn: RealDataExperiment, data_dir: Path | None) -> Experiment:
