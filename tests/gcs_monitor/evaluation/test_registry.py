@@ -22,6 +22,7 @@ NAMES = {
     # issue 15: never blind, never fooled
     "rate_sweep", "presets_weather", "triplex_weather", "wan2018_campaign_weather",
     "real_flights",
+    "lu2017", "lu2017_calibration", "lu2017_campaign",  # added with the actuator family
 }
 
 
