@@ -416,8 +416,8 @@ def run_check(args: argparse.Namespace, command: str) -> int:
                     raise
     wall_s = time.perf_counter() - t0
     script_note = ", ".join(
-        f"{side} by {'its own' if s.is_relative_to(trees[side]) else 'the new tree'}'s "
-        f"{EQUALITY_SCRIPT}" for side, s in scripts.items())
+        f"{side} by {'its own copy' if s.is_relative_to(trees[side]) else 'the new copy'} of "
+        f"`{EQUALITY_SCRIPT}`" for side, s in scripts.items())
     n_same = sum(r.difference is None for r in rows)
     report = "\n".join([
         f"Command: `{command}`",
@@ -430,6 +430,7 @@ def run_check(args: argparse.Namespace, command: str) -> int:
         f"`replay_equality.py compare --atol 0`; journals of `gcs-monitor replay --journal` "
         f"compared without {' / '.join(WALL_TIME_KEYS)}.",
         *notes,
+        *([f"Logs of every step: `{log_dir}/`."] if args.out is not None else []),
         "",
         format_table(rows),
         "",
