@@ -262,7 +262,7 @@ def _batch_end(failures: list[tuple[Path, str]], partial: list[Path], n: int) ->
 
 
 def _no_vehicle(path: Path, fmt: str) -> str:
-    from gcs_monitor.convert.logs import KNOWN_FORMATS
+    from gcs_monitor.convert.logbase import KNOWN_FORMATS
 
     return (f"{path}: no vehicle telemetry the monitor can use in this {fmt} (no vehicle "
             f"sent IMU messages); expected {KNOWN_FORMATS}")
@@ -274,7 +274,7 @@ def replay_one(path: Path, args: argparse.Namespace, *, several: bool = False,
     """Replay one log: (monitor, LogInfo). Raises LogError when the file cannot be used."""
     from tqdm import tqdm
 
-    from gcs_monitor.convert.logs import LogError
+    from gcs_monitor.convert.logbase import LogError
 
     bar = tqdm(total=100, unit="%", desc=path.name,
                disable=args.quiet or not sys.stderr.isatty())
@@ -308,7 +308,7 @@ def _tlog_counts(monitor: Any) -> dict[str, int]:
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
-    from gcs_monitor.convert.logs import LogError
+    from gcs_monitor.convert.logbase import LogError
 
     failures: list[tuple[Path, str]] = []
     partial: list[Path] = []
@@ -343,7 +343,8 @@ def cmd_alarms(args: argparse.Namespace) -> int:
 
 def cmd_convert(args: argparse.Namespace) -> int:
     from gcs_monitor.convert.formats import ConvertError
-    from gcs_monitor.convert.logs import LogError, detect_log_format
+    from gcs_monitor.convert.logbase import LogError
+    from gcs_monitor.convert.logs import detect_log_format
     from gcs_monitor.convert.writer import convert_file, lu2016_table2_injector
 
     args.out.mkdir(parents=True, exist_ok=True)
@@ -387,7 +388,7 @@ def _write_log_tlog(path: Path, out: Path, args: argparse.Namespace, fmt: str) -
 
     if fmt == "tlog":
         shutil.copyfile(path, out)
-        from gcs_monitor.convert.logs import LogInfo
+        from gcs_monitor.convert.logbase import LogInfo
 
         return LogInfo(path=path, fmt="tlog")
     opened = open_log(path, fmt, column_map=args.map, imu_rate_hz=args.imu_rate_hz)
@@ -413,7 +414,7 @@ def _tlog_records(src: Any, fh: Any, header: Any) -> None:
 
 
 def cmd_report(args: argparse.Namespace) -> int:
-    from gcs_monitor.convert.logs import LogError
+    from gcs_monitor.convert.logbase import LogError
     from gcs_monitor.report import write_report
 
     failures: list[tuple[Path, str]] = []

@@ -25,7 +25,7 @@ from typing import Any
 
 from gcs_monitor.calibrate import calibrate
 from gcs_monitor.config import MonitorConfig
-from gcs_monitor.convert.logs import LogError
+from gcs_monitor.convert.logbase import LogError
 from gcs_monitor.evaluation.report import md_table, write_csv
 from gcs_monitor.evaluation.runner import run_parallel
 from gcs_monitor.fdi.events import AlarmKind, AlarmState, FaultType
