@@ -1,0 +1,119 @@
+"""Chen2020 observer design for a simulated airframe: LPV model and LMI gains, stored as data.
+
+``gcs-monitor yaw-design --airframe NAME`` (or :func:`write_design`) linearises the simulator's
+lateral dynamics at trim across the airframe's speed range, fits the LPV model affine in
+``[V_eas, V_eas^2]`` (Chen2020 eq. 59) and solves the LMI of the observer gain ``L_1`` for each
+monitorable gyro axis (:func:`gcs_monitor.filters.lpv_smo_design.design_l1`); the result goes
+to ``gcs_monitor/families/yaw_rate/designs/<airframe>.json``, which the monitor loads (no
+solver at monitor start).
+
+Design values: Chen2020 sec. V for ``A_f = 0.01``, ``k_2 = 0.1``, ``k = 0.8`` and the sigmoid's
+``delta = 0.01``; ours for the uncertainty distribution ``M_p`` and the bound on ``||L_1||``
+(docs/papers-notes.md, Chen2020).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from gcs_monitor.families.yaw_rate.design import ObserverDesign
+from gcs_monitor.filters.lpv_smo import SmoDesign
+from gcs_monitor.filters.lpv_smo_design import a11_margin, design_l1
+from gcs_monitor.models.lateral import STATES, LateralLpv, LpvFitError
+
+DESIGN_DIR = Path(__file__).resolve().parents[2] / "families" / "yaw_rate" / "designs"
+
+
+@dataclass(frozen=True, slots=True)
+class Envelope:
+    """Where an airframe's model is built: TAS range (m/s) at one altitude (m)."""
+
+    tas_mps: tuple[float, float]
+    alt_m: float
+    n_points: int = 11
+
+
+# transport: 160-360 kt (Wan2018's envelope; the presets fly 250 kt at 1000-1500 m);
+# uav: the Aerosonde's 18-35 m/s around its 25 m/s trim
+ENVELOPES = {"transport": Envelope((85.0, 185.0), 1500.0),
+             "uav": Envelope((18.0, 35.0), 1000.0)}
+
+
+@dataclass(frozen=True, slots=True)
+class DesignParams:
+    """The design values (Chen2020 sec. V where it gives them)."""
+
+    A_f: float = 0.01  # Chen2020 sec. V
+    k2: float = 0.1  # Chen2020 sec. V
+    k: float = 0.8  # Chen2020 sec. V (flown; 1.2 was the open-loop optimum of Fig. 2)
+    delta: float = 0.01  # Chen2020 sec. V, sigmoid smoothing
+    # ours: uncertainty channels beta, p, r with weights (Chen2020 eq. 60: p, r only)
+    xi_weights: tuple[float, float, float, float] = (0.0, 10.0, 1.0, 1.0)
+    l1_max: float = 0.3  # ours: bound on ||L_1|| (noise through G_n = [-L; I])
+
+
+def uncertainty_matrix(weights: tuple[float, ...]) -> np.ndarray:
+    """``M_p`` with one column per weighted state channel (Chen2020 eq. 60 is weights
+    (0, 0, 1, 1))."""
+    cols = [i for i, w in enumerate(weights) if w > 0.0]
+    M = np.zeros((len(STATES), len(cols)))
+    for j, i in enumerate(cols):
+        M[i, j] = weights[i]
+    return M
+
+
+def design_sensors(model: LateralLpv, p: DesignParams,
+                   sensors: tuple[str, ...] = ("r", "p")) -> tuple[dict[str, SmoDesign],
+                                                                   dict[str, Any]]:
+    """The LMI design of every sensor's observer on ``model``'s vertices."""
+    verts = [model.at_rho(*r)[0] for r in model.vertices()]
+    Mp = uncertainty_matrix(p.xi_weights)
+    A_f = np.array([[p.A_f]])
+    out: dict[str, SmoDesign] = {}
+    info: dict[str, Any] = {}
+    for s in sensors:
+        faulty = (STATES.index(s),)
+        res = design_l1(verts, faulty, A_f, Mp, l1_max=p.l1_max)
+        if not np.all(np.isfinite(res.L1)):
+            raise RuntimeError(f"LMI design for sensor {s} failed: {res.status}")
+        out[s] = SmoDesign(faulty, A_f, p.k2, res.L1, p.k, p.delta, res.gamma)
+        info[s] = {"gamma": res.gamma, "status": res.status, "solver": res.solver,
+                   "a11_margin_radps": max(a11_margin(v, faulty, A_f, res.L1) for v in verts)}
+    return out, info
+
+
+def fit_summary(err: LpvFitError) -> dict[str, Any]:
+    return {"rel_A": err.rel_A, "rel_B": err.rel_B, "eig_max_radps": err.eig_max_rad_s,
+            "nrmse": err.nrmse.tolist(), "n_points": err.n_points}
+
+
+def make_design(airframe: str, p: DesignParams | None = None) -> tuple[ObserverDesign,
+                                                                        LpvFitError]:
+    """Linearise, fit and design for a simulated airframe."""
+    from sim_vehicle.dynamics.linearise import lateral_lpv
+
+    p = p or DesignParams()
+    env = ENVELOPES[airframe]
+    speeds = tuple(np.linspace(env.tas_mps[0], env.tas_mps[1], env.n_points).tolist())
+    model, err, _ = lateral_lpv(airframe, speeds, env.alt_m)
+    sensors, info = design_sensors(model, p)
+    meta = {"command": f"gcs-monitor yaw-design --airframe {airframe}",
+            "airframe": airframe, "fit": fit_summary(err), "lmi": info,
+            "params": {"A_f": p.A_f, "k2": p.k2, "k": p.k, "delta": p.delta,
+                       "xi_weights": list(p.xi_weights), "l1_max": p.l1_max}}
+    return ObserverDesign(model, sensors, meta), err
+
+
+def write_design(airframe: str, out: Path | None = None) -> tuple[Path, ObserverDesign]:
+    """Make the design and write it (default: the shipped design file)."""
+    design, _ = make_design(airframe)
+    path = out if out is not None else DESIGN_DIR / f"{airframe}.json"
+    if path.is_dir():
+        path = path / f"{airframe}.json"
+    path.write_text(json.dumps(design.to_dict(), indent=1) + "\n")
+    return path, design
