@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import math
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -223,6 +224,30 @@ def cmd_config(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_calibrate(args: argparse.Namespace) -> int:
+    from gcs_monitor.calibrate import calibrate, calibration_toml, margins_table
+
+    base = load_config(args.config)
+    missing = [p for p in args.flights if not p.is_file()]
+    if missing:
+        print(f"gcs-monitor calibrate: no such file: {', '.join(map(str, missing))}",
+              file=sys.stderr)
+        return 2
+    cal = calibrate(args.flights, base, margin=args.margin,
+                    progress=lambda m: print(m, file=sys.stderr, flush=True))
+    print("noise model (1 sigma, SI): " + ", ".join(
+        f"{k} {v:.3g}" for k, v in cal.noise.items() if math.isfinite(v)))
+    print("thresholds J_th (SI): " + ", ".join(f"{k} {v:.4g}" for k, v in
+                                               sorted(cal.thresholds.items())))
+    print("\nlargest J of each flight as a share of the new J_th (1 / margin at the worst):")
+    for line in margins_table(cal):
+        print(line)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(calibration_toml(cal, base, args.flights))
+    print(f"\nwrote {args.out} (use it with --config)")
+    return 0
+
+
 def cmd_demo(args: argparse.Namespace) -> int:
     return run_demo(args.out, preset=args.preset)
 
@@ -298,6 +323,15 @@ def build_parser() -> argparse.ArgumentParser:
                    help="print the configuration reference (docs/configuration.md)")
     s.add_argument("--no-comments", action="store_true", help="TOML without comments")
     s.set_defaults(func=cmd_config)
+    s = sub.add_parser("calibrate", help="noise model and thresholds from your own fault-free "
+                                         "flights; writes a config replay and live accept")
+    s.add_argument("flights", nargs="+", type=Path, help=".tlog files or CSV layouts that "
+                   "`convert` reads, known to be fault-free")
+    s.add_argument("--out", type=Path, default=Path("airframe.toml"), help="config to write")
+    s.add_argument("--config", type=Path, help="start from this config instead of the defaults")
+    s.add_argument("--margin", type=float, default=1.5,
+                   help="J_th = margin x the largest fault-free residual RMS (default 1.5)")
+    s.set_defaults(func=cmd_calibrate)
     s = sub.add_parser("demo", help="simulate a faulty flight, monitor it, write a recording")
     s.add_argument("--out", type=Path, default=Path("gcs_demo"))
     s.add_argument("--preset", default="demo_airdata_faults")

@@ -99,7 +99,8 @@ class Monitor:
                             statuses=bool(sinks) or self.on_step is not None,
                             alarm=self.cfg.alarms, classifier=self.cfg.classifier)
         return VehiclePipeline(sysid, self.families_for(ctx), sinks=sinks,
-                               coverage=self.cfg.coverage, alarm=self.cfg.alarms)
+                               coverage=self.cfg.coverage, alarm=self.cfg.alarms,
+                               statuses=ctx.statuses)
 
     def feed(self, data: bytes, wall_s: float = 0.0) -> list[AlarmEvent]:
         """Decode a chunk and run every Frame it completes; return the alarm events."""

@@ -38,12 +38,14 @@ class VehiclePipeline:
     sinks : publishers (Rerun, Zenoh, journal)
     coverage : when a family counts as judging (monitor_degraded alarms)
     alarm : alarm update policy
+    statuses : put each family's coverage in every StepOutput (off when nobody reads it)
     """
 
     def __init__(self, vehicle: int, families: Sequence[Family], *,
                  sinks: Sequence[Sink] = (), coverage: CoverageConfig | None = None,
-                 alarm: AlarmParams | None = None) -> None:
+                 alarm: AlarmParams | None = None, statuses: bool = True) -> None:
         self.vehicle = vehicle
+        self.statuses = statuses  # coverage records per Frame (for sinks and callbacks)
         self.families = list(families)
         self.sinks = list(sinks)
         cov = coverage if coverage is not None else CoverageConfig()
@@ -73,7 +75,8 @@ class VehiclePipeline:
             degraded = cov.step(verdict.status)
             if degraded:
                 out.events += degraded
-            out.coverage.append(cov.coverage)
+            if self.statuses:
+                out.coverage.append(cov.coverage)
         for event in out.events:
             if event.state is AlarmState.CLEARED:
                 self.active.pop(event.channel, None)

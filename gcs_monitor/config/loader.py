@@ -297,13 +297,14 @@ def config_tables(cfg: MonitorConfig | None = None) -> list[Table]:
     return out
 
 
-def _toml_value(v: Any) -> str:
+def toml_value(v: Any) -> str:
+    """A value as TOML writes it."""
     if isinstance(v, bool):
         return "true" if v else "false"
     if isinstance(v, str):
         return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
     if isinstance(v, list):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+        return "[" + ", ".join(toml_value(x) for x in v) + "]"
     if isinstance(v, float):
         return repr(v)
     return str(v)
@@ -322,7 +323,7 @@ def config_toml(cfg: MonitorConfig | None = None, *, comments: bool = True) -> s
             lines.append(f"# {t.doc}")
         lines.append(f"[{t.name}]")
         for e in t.entries:
-            line = f"{e.key} = {_toml_value(e.value)}"
+            line = f"{e.key} = {toml_value(e.value)}"
             lines.append(f"{line}  # {e.doc}" if comments and e.doc else line)
     return "\n".join(lines) + "\n"
 
@@ -345,6 +346,6 @@ def config_markdown() -> str:
         out += ["| key | default | meaning |", "|---|---|---|"]
         for e in t.entries:
             doc = e.doc.replace("|", "\\|")
-            out.append(f"| `{e.key}` | `{_toml_value(e.value)}` | {doc} |")
+            out.append(f"| `{e.key}` | `{toml_value(e.value)}` | {doc} |")
         out.append("")
     return "\n".join(out)

@@ -23,8 +23,9 @@ Deterministic, vehicle time only.
 from __future__ import annotations
 
 import math
-from collections import Counter, deque
+from collections import deque
 from dataclasses import dataclass
+from typing import Any
 
 from gcs_monitor.core.params import param
 from gcs_monitor.core.types import ChannelId
@@ -56,11 +57,16 @@ class CoverageConfig:
 
 
 class FamilyCoverage:
-    """Coverage and monitor_degraded alarm of one family (see the module docstring)."""
+    """Coverage and monitor_degraded alarm of one family (see the module docstring).
 
-    __slots__ = ("family", "cfg", "_window_us", "_hold_us", "_frames", "_n_covered",
-                 "_last_judged_us", "_first_inputs_us", "_seen_inputs", "_reasons", "_alarm",
-                 "state", "_total", "_total_covered", "_last")
+    The window is kept as runs of Frames in one state (covered, or not covered for one reason),
+    each weighted by the vehicle time it spans (the interval since the previous Frame), so a
+    Frame costs a few additions and the share is a share of time.
+    """
+
+    __slots__ = ("family", "cfg", "_window_us", "_hold_us", "_runs", "_covered_us", "_total_us",
+                 "_reason_us", "_prev_t", "_last_judged_us", "_first_inputs_us", "_alarm",
+                 "state", "_all_us", "_all_covered_us", "_reason_last")
 
     def __init__(self, family: str, cfg: CoverageConfig, *, vehicle: int = 1,
                  alarm: AlarmParams | None = None) -> None:
@@ -68,77 +74,108 @@ class FamilyCoverage:
         self.cfg = cfg
         self._window_us = round(cfg.window_s * US_PER_S)
         self._hold_us = round(cfg.hold_s * US_PER_S)
-        # (t_us, covered, reason) of the Frames in the window
-        self._frames: deque[tuple[int, bool, str]] = deque()
-        self._n_covered = 0
-        self._reasons: Counter[str] = Counter()  # reasons of the uncovered Frames in the window
+        # runs of the window, oldest first: [start_us, end_us, covered, reason]
+        self._runs: deque[list[Any]] = deque()
+        self._covered_us = 0
+        self._total_us = 0
+        self._reason_us: dict[str, int] = {}  # uncovered time per reason in the window
+        self._prev_t: int | None = None
         self._last_judged_us: int | None = None
         self._first_inputs_us: int | None = None
-        self._seen_inputs = False
         self._alarm = AlarmStateMachine(ChannelId(MONITOR_KIND, 0, family),
                                         AlarmKind.MONITOR_DEGRADED, family, params=alarm,
                                         vehicle=vehicle)
         self.state = "unavailable"
-        self._total = 0  # Frames since the family first had inputs
-        self._total_covered = 0
-        self._last = Coverage(family, "unavailable", math.nan, math.nan, "no inputs yet")
+        self._all_us = 0  # since the family first judged (or was first due to)
+        self._all_covered_us = 0
+        self._reason_last = "no inputs yet"
+
+    def recent(self) -> float:
+        """Share of the window's time judged (NaN before anything was counted)."""
+        if self._total_us:
+            return self._covered_us / self._total_us
+        return math.nan if not self._runs else (1.0 if self._runs[-1][2] else 0.0)
+
+    def reason(self) -> str:
+        """The reason most of the window's uncovered time had."""
+        if not self._reason_us:
+            return "" if self.state != "unavailable" else self._reason_last
+        return max(self._reason_us.items(), key=lambda kv: kv[1])[0]
 
     @property
     def coverage(self) -> Coverage:
-        return self._last
+        if self.state in ("unavailable", "starting"):
+            return Coverage(self.family, self.state, math.nan, math.nan, self._reason_last)
+        overall = self._all_covered_us / self._all_us if self._all_us else self.recent()
+        return Coverage(self.family, self.state, self.recent(), overall, self.reason())
 
     def step(self, st: FamilyStatus) -> list[AlarmEvent]:
         """One Frame's status of the family; returns the monitor_degraded transitions."""
         t = st.t_us
-        if st.inputs and not self._seen_inputs:
-            self._seen_inputs = True
+        if self._first_inputs_us is None:
+            if not st.inputs:
+                self._reason_last = st.reason or "inputs missing"
+                return []
             self._first_inputs_us = t
-        if not self._seen_inputs:
-            self._last = Coverage(self.family, "unavailable", math.nan, math.nan,
-                                  st.reason or "inputs missing")
-            return []
         if st.judged:
             self._last_judged_us = t
         last = self._last_judged_us
-        assert self._first_inputs_us is not None
         if last is None and t - self._first_inputs_us < self._window_us:
             # start-up (estimator warm-up): not a loss of coverage, not counted
             self.state = "starting"
-            self._last = Coverage(self.family, "starting", math.nan, math.nan,
-                                  st.reason or "starting")
+            self._reason_last = st.reason or "starting"
             return []
         covered = last is not None and t - last <= self._hold_us
         reason = "" if covered else (st.reason or "not judged")
-        frames = self._frames
-        frames.append((t, covered, reason))
-        if covered:
-            self._n_covered += 1
+        prev = self._prev_t
+        self._prev_t = t
+        dt = t - prev if prev is not None and t > prev else 0
+        runs = self._runs
+        if runs and runs[-1][2] == covered and runs[-1][3] == reason:
+            runs[-1][1] = t
         else:
-            self._reasons[reason] += 1
-        horizon = t - self._window_us
-        while frames and frames[0][0] <= horizon:
-            _, c, r = frames.popleft()
-            if c:
-                self._n_covered -= 1
+            runs.append([prev if prev is not None else t, t, covered, reason])
+        if dt:
+            self._total_us += dt
+            self._all_us += dt
+            if covered:
+                self._covered_us += dt
+                self._all_covered_us += dt
             else:
-                self._reasons[r] -= 1
-                if not self._reasons[r]:
-                    del self._reasons[r]
-        self._total += 1
-        self._total_covered += covered
-        share = self._n_covered / len(frames)
-        overall = self._total_covered / self._total
-        why = self._reasons.most_common(1)[0][0] if self._reasons else ""
+                self._reason_us[reason] = self._reason_us.get(reason, 0) + dt
+            self._evict(t - self._window_us)
+        share = self.recent()
         active = self._alarm.active
         degraded = share < (self.cfg.clear_coverage if active else self.cfg.min_coverage)
         events: list[AlarmEvent] = []
         if degraded != active:
             msg = (f"{self.family} judged {100 * share:.0f} % of the last "
-                   f"{self.cfg.window_s:g} s: {why}" if degraded else
+                   f"{self.cfg.window_s:g} s: {self.reason()}" if degraded else
                    f"{self.family} judging again ({100 * share:.0f} %)")
             events = self._alarm.step(t, degraded, fault_type=FaultType.UNKNOWN,
                                       magnitude=share, rms=math.nan,
                                       threshold=self.cfg.min_coverage, message=msg)
         self.state = "degraded" if self._alarm.active else "judging"
-        self._last = Coverage(self.family, self.state, share, overall, why)
         return events
+
+    def _evict(self, horizon: int) -> None:
+        """Drop the time before ``horizon`` from the window's runs and sums."""
+        runs = self._runs
+        while runs and runs[0][0] < horizon:
+            r = runs[0]
+            cut = min(r[1], horizon) - r[0]
+            if cut > 0:
+                self._total_us -= cut
+                if r[2]:
+                    self._covered_us -= cut
+                else:
+                    left = self._reason_us[r[3]] - cut
+                    if left > 0:
+                        self._reason_us[r[3]] = left
+                    else:
+                        del self._reason_us[r[3]]
+            if r[1] <= horizon:
+                runs.popleft()
+            else:
+                r[0] = horizon
+                break

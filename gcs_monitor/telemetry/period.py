@@ -8,6 +8,7 @@ does not move it.
 
 from __future__ import annotations
 
+import bisect
 import math
 from collections import deque
 
@@ -16,13 +17,19 @@ PERIOD_INTERVALS = 16  # intervals the median runs over
 
 
 class SamplePeriod:
-    """Median interval of the last :data:`PERIOD_INTERVALS` sample instants of one stream."""
+    """Median interval of the last :data:`PERIOD_INTERVALS` sample instants of one stream.
 
-    __slots__ = ("_last_us", "_dt_us")
+    The intervals are also kept sorted (insertion into 16 values), so :meth:`seconds` is O(1):
+    streams call it at every sample.
+    """
+
+    __slots__ = ("_last_us", "_dt_us", "_sorted", "_s")
 
     def __init__(self) -> None:
         self._last_us: int | None = None
-        self._dt_us: deque[int] = deque(maxlen=PERIOD_INTERVALS)
+        self._dt_us: deque[int] = deque()
+        self._sorted: list[int] = []
+        self._s = math.nan
 
     def add(self, t_us: int) -> None:
         """One sample instant (int µs); instants not after the previous one are ignored."""
@@ -30,7 +37,17 @@ class SamplePeriod:
         if last is not None:
             if t_us <= last:
                 return
-            self._dt_us.append(t_us - last)
+            dt = t_us - last
+            d, srt = self._dt_us, self._sorted
+            if len(d) == PERIOD_INTERVALS:
+                old = d.popleft()
+                del srt[bisect.bisect_left(srt, old)]
+            d.append(dt)
+            bisect.insort(srt, dt)
+            n = len(srt)
+            mid = n // 2
+            us = srt[mid] if n % 2 else (srt[mid - 1] + srt[mid]) // 2
+            self._s = us / US_PER_S
         self._last_us = t_us
 
     def gap(self) -> None:
@@ -44,15 +61,10 @@ class SamplePeriod:
 
     def seconds(self) -> float:
         """The measured period (s), NaN before two instants were seen."""
-        d = self._dt_us
-        if not d:
-            return math.nan
-        s = sorted(d)
-        n = len(s)
-        mid = n // 2
-        us = s[mid] if n % 2 else (s[mid - 1] + s[mid]) // 2
-        return us / US_PER_S
+        return self._s
 
     def reset(self) -> None:
         self._last_us = None
         self._dt_us.clear()
+        self._sorted.clear()
+        self._s = math.nan

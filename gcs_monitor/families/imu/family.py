@@ -35,6 +35,7 @@ US_PER_S = 1_000_000
 # IMU rates the estimators are valid for (their discretisation follows the measured step; below
 # 10 Hz the attitude kinematics between samples is not resolved; docs/results.md, rate sweep)
 RATE_HZ = (10.0, 400.0)
+NO_DATA_PERIODS = 3.0  # an IMU instance is silent after this many of its own periods at least
 
 
 @dataclass
@@ -77,6 +78,7 @@ class ImuFamily:
         # no-data check of every IMU instance: last sample time, alarm
         self._no_data_us = round(cfg.no_data_window_s * US_PER_S)
         self._last_sample: dict[int, int] = {}
+        self._instance_period: dict[int, SamplePeriod] = {}
         self._silent: dict[int, AlarmStateMachine] = {}
 
     @property
@@ -147,12 +149,21 @@ class ImuFamily:
         ``ChannelId("imu", i)`` with the remaining redundancy; it clears when it delivers."""
         t = frame.t_us
         seen = self._last_sample
+        periods = self._instance_period
         for i, smp in enumerate(frame.imu):
-            if smp is not None:
+            if smp is not None and seen.get(i) != smp.t_us:
                 seen[i] = smp.t_us
+                per = periods.get(i)
+                if per is None:
+                    per = periods[i] = SamplePeriod()
+                per.add(smp.t_us)
         if len(seen) < 2:
             return []
-        silent = {i for i, ts in seen.items() if t - ts > self._no_data_us}
+        # silent for the window, and for several of its own periods (one lost packet of a slow
+        # stream is not a silent sensor)
+        window = self._no_data_us
+        silent = {i for i, ts in seen.items()
+                  if t - ts > window and t - ts > NO_DATA_PERIODS * periods[i].seconds() * 1e6}
         events: list[AlarmEvent] = []
         for i in sorted(seen):
             sm = self._silent.get(i)

@@ -1,0 +1,317 @@
+"""``gcs-monitor calibrate``: a configuration for one's own airframe from its clean flights.
+
+The defaults suit the simulated airframes; another airframe has other sensors and another
+fault-free residual floor. From flights known to be fault-free this derives, in two passes:
+
+1. **the sensor noise model** from the telemetry itself, with robust (median absolute deviation)
+   estimators that motion does not inflate: IMU accelerometer and gyro noise from the first
+   differences of each axis (``sigma = MAD(dx) / (0.6745 sqrt 2)``), GPS-velocity and attitude
+   noise from second differences (``MAD(d2x) / (0.6745 sqrt 6)``), the AoA and CAS instances'
+   noise from the differences between instances (``MAD(x_i - x_j) / (0.6745 sqrt 2)``). They
+   become the Lu2016 / Atmaca2025 noise tables (R and Q of the IMU estimators, which set their
+   gates) and the classifier's noise of every set;
+2. **the thresholds** by replaying each flight with that noise model and detection switched off
+   (every J_th raised out of reach, so nothing is isolated and the residuals stay those of a
+   healthy vehicle): ``J_th = margin x`` the largest residual RMS J of any flight (Wan2018 sec.
+   VI-B's rule: zero false alarms on the fault-free runs), per redundant set and per IMU
+   estimator and sensor kind.
+
+It prints, per flight, the largest J against the new J_th (the margin each flight keeps) and
+writes a TOML file with only what it changed, which ``replay`` and ``live`` accept
+(``--config``). Flights: ``.tlog`` files and the CSV layouts ``gcs-monitor convert`` reads.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tempfile
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from gcs_monitor.config import MonitorConfig
+from gcs_monitor.config.loader import config_tables, toml_value
+from gcs_monitor.convert.formats import detect_format
+from gcs_monitor.convert.writer import convert_file
+from gcs_monitor.fdi.records import StepOutput
+from gcs_monitor.link.transports import TlogSource
+from gcs_monitor.monitor import Monitor
+from gcs_monitor.telemetry.frame import Frame
+
+MAD_SIGMA = 0.6745  # MAD of a Gaussian / its sigma
+OUT_OF_REACH = 1.0e9  # J_th that nothing reaches (detection off while observing)
+IMU_SETS = ("ts", "hosm")
+
+
+@dataclass
+class _Noise:
+    """Per-flight samples for the robust noise estimates (differences, SI)."""
+
+    acc: list[np.ndarray] = field(default_factory=list)  # (n, 3) first differences
+    gyro: list[np.ndarray] = field(default_factory=list)
+    gps_vel: list[np.ndarray] = field(default_factory=list)  # (n, 3) second differences
+    euler: list[np.ndarray] = field(default_factory=list)
+    aoa_pair: list[np.ndarray] = field(default_factory=list)  # instance differences
+    cas_pair: list[np.ndarray] = field(default_factory=list)
+
+
+@dataclass
+class FlightStats:
+    """What one flight contributed."""
+
+    name: str
+    duration_s: float
+    j_max: dict[str, float] = field(default_factory=dict)  # key -> largest J (SI)
+
+
+@dataclass
+class Calibration:
+    """The calibrated configuration and how it was reached."""
+
+    config: MonitorConfig
+    noise: dict[str, float]  # noise sigma per signal, SI
+    thresholds: dict[str, float]  # J_th per key, SI
+    flights: list[FlightStats]
+    margin: float
+
+
+def flight_chunks(path: Path, tmp: Path) -> Iterator[tuple[bytes, float]]:
+    """MAVLink bytes of a flight: a .tlog as it is, a CSV layout converted to a tlog first."""
+    fmt = detect_format(path)
+    if fmt == "tlog":
+        yield from TlogSource(path)
+        return
+    out = tmp / (path.stem + ".tlog")
+    convert_file(path, out, fmt=fmt)
+    yield from TlogSource(out)
+
+
+def _mad_sigma(parts: Sequence[np.ndarray], scale: float) -> float:
+    """Robust sigma of the pooled differences (``MAD / 0.6745 / scale``), NaN without data."""
+    if not parts:
+        return math.nan
+    x = np.concatenate([np.ravel(p) for p in parts])
+    x = x[np.isfinite(x)]
+    if x.size < 20:
+        return math.nan
+    return float(np.median(np.abs(x - np.median(x))) / MAD_SIGMA / scale)
+
+
+class _NoiseRecorder:
+    """Collects the primary IMU, GPS velocity, attitude and air data of one flight."""
+
+    def __init__(self) -> None:
+        self.imu: list[np.ndarray] = []
+        self.att: list[np.ndarray] = []
+        self.gps: list[np.ndarray] = []
+        self.aoa: list[np.ndarray] = []
+        self.cas: list[np.ndarray] = []
+
+    def __call__(self, sysid: int, frame: Frame, out: StepOutput) -> None:
+        imu = frame.primary_imu
+        if imu is not None and imu.t_us == frame.t_us:
+            self.imu.append(np.concatenate([imu.acc_frd_mps2, imu.omega_frd_radps]))
+        if frame.euler_rad is not None and frame.att_age_s == 0.0:
+            self.att.append(np.asarray(frame.euler_rad, dtype=float))
+        if frame.gps_new and frame.gps_vel_ned_mps is not None:
+            self.gps.append(np.asarray(frame.gps_vel_ned_mps, dtype=float))
+        if frame.air_new:
+            self.aoa.append(np.asarray(frame.aoa_rad, dtype=float))
+            self.cas.append(np.asarray(frame.cas_mps, dtype=float))
+
+    def into(self, n: _Noise) -> None:
+        if len(self.imu) > 3:
+            d = np.diff(np.array(self.imu), axis=0)
+            n.acc.append(d[:, :3])
+            n.gyro.append(d[:, 3:])
+        if len(self.gps) > 3:
+            n.gps_vel.append(np.diff(np.array(self.gps), n=2, axis=0))
+        if len(self.att) > 3:
+            a = np.unwrap(np.array(self.att), axis=0)
+            n.euler.append(np.diff(a, n=2, axis=0))
+        for vals, dest in ((self.aoa, n.aoa_pair), (self.cas, n.cas_pair)):
+            if len(vals) > 3:
+                v = np.array(vals)
+                for i in range(v.shape[1]):
+                    for j in range(i + 1, v.shape[1]):
+                        dest.append(v[:, i] - v[:, j])
+
+
+def _replay(path: Path, tmp: Path, cfg: MonitorConfig,
+            on_step: Callable[[int, Frame, StepOutput], None]) -> float:
+    """Replay one flight through ``cfg``; its duration (vehicle s)."""
+    mon = Monitor(cfg, on_step=on_step)
+    for data, wall in flight_chunks(path, tmp):
+        mon.feed(data, wall)
+    mon.finish()
+    return max((v.last_t_us for v in mon.vehicles.values()), default=0) * 1e-6
+
+
+def with_noise(cfg: MonitorConfig, noise: dict[str, float]) -> MonitorConfig:
+    """``cfg`` with the measured noise in the estimators' and classifier's tables (only the
+    signals that were measured)."""
+    def have(k: str) -> bool:
+        return math.isfinite(noise.get(k, math.nan)) and noise[k] > 0.0
+
+    imu = cfg.family("imu")
+    ts_n = imu.ts.estimator.noise
+    ts_n = dataclasses.replace(
+        ts_n, **{f: noise[k] for f, k in (("acc_sigma_mps2", "acc"), ("gyro_sigma_radps", "gyro"),
+                                          ("vel_sigma_mps", "gps_vel"),
+                                          ("euler_sigma_rad", "euler")) if have(k)})
+    h_n = imu.hosm.estimator.noise
+    h_n = dataclasses.replace(
+        h_n, **{f: noise[k] for f, k in (("acc_sigma_mps2", "acc"), ("gyro_sigma_radps", "gyro"),
+                                         ("gps_vel_sigma_mps", "gps_vel"),
+                                         ("phi_theta_sigma_rad", "euler"),
+                                         ("psi_sigma_rad", "euler")) if have(k)})
+    imu = dataclasses.replace(
+        imu,
+        ts=dataclasses.replace(imu.ts, estimator=dataclasses.replace(imu.ts.estimator,
+                                                                     noise=ts_n)),
+        hosm=dataclasses.replace(imu.hosm, estimator=dataclasses.replace(imu.hosm.estimator,
+                                                                         noise=h_n)))
+    air = cfg.family("airdata")
+    fdi = air.fdi
+    for s in ("aoa", "cas"):
+        if have(s):
+            fdi = dataclasses.replace(fdi, **{s: dataclasses.replace(getattr(fdi, s),
+                                                                     noise_sigma=noise[s])})
+    air = dataclasses.replace(air, fdi=fdi)
+    return cfg.with_family("imu", imu).with_family("airdata", air)
+
+
+def _observing(cfg: MonitorConfig) -> MonitorConfig:
+    """``cfg`` with every J_th out of reach (nothing isolated while the J are recorded)."""
+    imu = cfg.family("imu")
+    sec = {}
+    for name in IMU_SETS:
+        s = getattr(imu, name)
+        fdi = dataclasses.replace(s.fdi, acc=dataclasses.replace(s.fdi.acc, threshold=OUT_OF_REACH),
+                                  gyro=dataclasses.replace(s.fdi.gyro, threshold=OUT_OF_REACH))
+        sec[name] = dataclasses.replace(s, fdi=fdi)
+    air = cfg.family("airdata")
+    fdi = dataclasses.replace(
+        air.fdi, aoa=dataclasses.replace(air.fdi.aoa, threshold=OUT_OF_REACH),
+        cas=dataclasses.replace(air.fdi.cas, threshold=OUT_OF_REACH))
+    return (cfg.with_family("imu", dataclasses.replace(imu, **sec))
+            .with_family("airdata", dataclasses.replace(air, fdi=fdi)))
+
+
+class _JRecorder:
+    """The largest residual RMS per set and per IMU estimator and kind."""
+
+    def __init__(self) -> None:
+        self.j: dict[str, float] = {}
+
+    def _put(self, key: str, j: float) -> None:
+        if math.isfinite(j) and j > self.j.get(key, -1.0):
+            self.j[key] = j
+
+    def __call__(self, sysid: int, frame: Frame, out: StepOutput) -> None:
+        for s in out.sets:
+            for j in s.rms:
+                self._put(f"airdata.{s.name}", j)
+        for c in out.channels:
+            if c.rms > 0.0:  # 0 until the channel is judged (estimator warm-up)
+                est = "ts" if c.estimator.startswith("imu_ts") else "hosm"
+                self._put(f"imu.{est}.{c.channel.kind}", c.rms)
+
+
+def calibrate(flights: Sequence[Path], base: MonitorConfig | None = None, *,
+              margin: float = 1.5,
+              progress: Callable[[str], None] = lambda s: None) -> Calibration:
+    """Noise model and thresholds from fault-free ``flights`` (module docstring)."""
+    if not flights:
+        raise ValueError("calibrate needs at least one flight")
+    if not margin > 1.0:
+        raise ValueError(f"margin must be > 1, got {margin}")
+    cfg = base if base is not None else MonitorConfig()
+    samples = _Noise()
+    stats: list[FlightStats] = []
+    with tempfile.TemporaryDirectory(prefix="gcs_calibrate_") as tmpdir:
+        tmp = Path(tmpdir)
+        for i, path in enumerate(flights):
+            progress(f"[1/2] noise {i + 1}/{len(flights)}: {path.name}")
+            rec = _NoiseRecorder()
+            dur = _replay(path, tmp, _observing(cfg), rec)
+            rec.into(samples)
+            stats.append(FlightStats(path.name, dur))
+        noise = {
+            "acc": _mad_sigma(samples.acc, math.sqrt(2.0)),
+            "gyro": _mad_sigma(samples.gyro, math.sqrt(2.0)),
+            "gps_vel": _mad_sigma(samples.gps_vel, math.sqrt(6.0)),
+            "euler": _mad_sigma(samples.euler, math.sqrt(6.0)),
+            "aoa": _mad_sigma(samples.aoa_pair, math.sqrt(2.0)),
+            "cas": _mad_sigma(samples.cas_pair, math.sqrt(2.0)),
+        }
+        noisy = with_noise(cfg, noise)
+        observe = _observing(noisy)
+        for i, path in enumerate(flights):
+            progress(f"[2/2] residuals {i + 1}/{len(flights)}: {path.name}")
+            jr = _JRecorder()
+            _replay(path, tmp, observe, jr)
+            stats[i].j_max = jr.j
+    j_all: dict[str, float] = {}
+    for st in stats:
+        for k, v in st.j_max.items():
+            j_all[k] = max(j_all.get(k, 0.0), v)
+    thresholds = {k: margin * v for k, v in j_all.items() if v > 0.0}
+    return Calibration(_with_thresholds(noisy, thresholds), noise, thresholds, stats, margin)
+
+
+def _with_thresholds(cfg: MonitorConfig, th: dict[str, float]) -> MonitorConfig:
+    imu = cfg.family("imu")
+    sec: dict[str, Any] = {}
+    for name in IMU_SETS:
+        s = getattr(imu, name)
+        fdi = s.fdi
+        for kind in ("acc", "gyro"):
+            v = th.get(f"imu.{name}.{kind}")
+            if v is not None:
+                fdi = dataclasses.replace(fdi, **{kind: dataclasses.replace(getattr(fdi, kind),
+                                                                            threshold=v)})
+        sec[name] = dataclasses.replace(s, fdi=fdi)
+    air = cfg.family("airdata")
+    fdi = air.fdi
+    for s in ("aoa", "cas"):
+        v = th.get(f"airdata.{s}")
+        if v is not None:
+            fdi = dataclasses.replace(fdi, **{s: dataclasses.replace(getattr(fdi, s), threshold=v)})
+    return (cfg.with_family("imu", dataclasses.replace(imu, **sec))
+            .with_family("airdata", dataclasses.replace(air, fdi=fdi)))
+
+
+def calibration_toml(cal: Calibration, base: MonitorConfig, flights: Sequence[Path]) -> str:
+    """The calibrated configuration as TOML: only the keys it changed against ``base``, with a
+    header saying where they came from (``load_config(path, base=...)`` restores the rest)."""
+    lines = [f"# gcs-monitor calibrate on {len(flights)} fault-free flight(s), margin "
+             f"{cal.margin:g} x the largest residual RMS of any flight:",
+             *(f"#   {p.name}" for p in flights),
+             "# Use with --config; every other key keeps its default (gcs-monitor config "
+             "--defaults)."]
+    old = {(t.name, e.key): e.value for t in config_tables(base) for e in t.entries}
+    for t in config_tables(cal.config):
+        changed = [e for e in t.entries if old.get((t.name, e.key)) != e.value]
+        if changed:
+            lines += ["", f"[{t.name}]"]
+            lines += [f"{e.key} = {toml_value(e.value)}  # {e.doc}" for e in changed]
+    return "\n".join(lines) + "\n"
+
+
+def margins_table(cal: Calibration) -> list[str]:
+    """Per flight and key: the largest J and its share of the new J_th (the margin kept)."""
+    keys = sorted(cal.thresholds)
+    lines = ["| flight | duration s | " + " | ".join(keys) + " |",
+             "|---|---|" + "---|" * len(keys)]
+    for st in cal.flights:
+        cells = []
+        for k in keys:
+            j = st.j_max.get(k)
+            cells.append("-" if j is None else f"{j / cal.thresholds[k]:.2f}")
+        lines.append(f"| {st.name} | {st.duration_s:.0f} | " + " | ".join(cells) + " |")
+    return lines
