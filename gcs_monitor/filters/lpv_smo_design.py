@@ -94,7 +94,7 @@ def design_l1(A_vertices: Sequence[Mat], faulty: Sequence[int], A_f: Mat, M_p: M
     Y = cp.Variable((q, n - q))
     g = cp.Variable(nonneg=True)
     eps = 1e-7
-    cons = [p1 >= eps, cp.norm(Y, 2) <= l1_max * p1]
+    cons = [p1 >= eps, cp.norm(Y, "fro") <= l1_max * p1]  # = spectral for q = 1
     Iq = np.eye(q)
     out_f = -np.linalg.solve(A_f, partition(A_vertices[0], faulty, A_f)["A212"])  # e_f map
     Pc = None
