@@ -156,7 +156,8 @@ def smo_matrices(A: Mat, B: Mat, c: Mat, design: SmoDesign) -> SmoMatrices:
         W[j, :, n + q + m:n + q + m + n] = -Gl
         W[j, :n, -1] = c[j][perm]
     Gn = np.vstack([-L, np.eye(n)])  # eq. 10
-    return SmoMatrices(n, q, m, tuple(perm), W, Gn, A_f, np.linalg.inv(A_f), design.k,
+    return SmoMatrices(n, q, m, tuple(perm), W, Gn, A_f,
+                       np.asarray(np.linalg.inv(A_f), dtype=np.float64), design.k,
                        design.delta, design)
 
 

@@ -32,9 +32,11 @@ Solver: Clarabel (interior point: 1e-8 accuracy, deterministic), SCS as a fallba
 
 from __future__ import annotations
 
+import importlib
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -62,8 +64,8 @@ class LmiResult:
     solver: str
 
 
-def _he(X: object) -> object:
-    return X + X.T  # type: ignore[operator]
+def _he(X: Any) -> Any:
+    return X + X.T
 
 
 def design_l1(A_vertices: Sequence[Mat], faulty: Sequence[int], A_f: Mat, M_p: Mat, *,
@@ -81,7 +83,7 @@ def design_l1(A_vertices: Sequence[Mat], faulty: Sequence[int], A_f: Mat, M_p: M
     closed_loop : per point of ``A_vertices``, the controller's closed loop; None: observer only
     decay : minimum decay rate of ``A~_11`` (1/s), 0 = stability only
     """
-    import cvxpy as cp
+    cp: Any = importlib.import_module("cvxpy")  # optional (design extra); untyped use
 
     n = A_vertices[0].shape[0]
     q = len(faulty)
@@ -131,7 +133,7 @@ def design_l1(A_vertices: Sequence[Mat], faulty: Sequence[int], A_f: Mat, M_p: M
     prob = cp.Problem(cp.Minimize(g), cons)
     try:
         prob.solve(solver=solver)
-    except cp.error.SolverError:
+    except cp.error.SolverError:  # Clarabel gave up: the first-order solver
         solver = "SCS"
         prob.solve(solver=solver, eps=1e-9, max_iters=200_000)
     if p1.value is None or Y.value is None or g.value is None:

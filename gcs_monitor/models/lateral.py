@@ -172,7 +172,8 @@ def fit_lpv(eas_mps: Sequence[float], A: Sequence[Mat], B: Sequence[Mat], *,
     X = _regressors(v)
     coefA, *_ = np.linalg.lstsq(X, Aa.reshape(v.size, -1), rcond=None)
     coefB, *_ = np.linalg.lstsq(X, Ba.reshape(v.size, -1), rcond=None)
-    model = LateralLpv(coefA.reshape(3, N_X, N_X), coefB.reshape(3, N_X, N_U),
+    model = LateralLpv(np.asarray(coefA.reshape(3, N_X, N_X), dtype=np.float64),
+                       np.asarray(coefB.reshape(3, N_X, N_U), dtype=np.float64),
                        np.zeros((3, N_X)), (float(v.min()), float(v.max())), source)
     Af = (X @ coefA).reshape(Aa.shape)
     Bf = (X @ coefB).reshape(Ba.shape)
