@@ -70,7 +70,8 @@ def _he(X: Any) -> Any:
 
 def design_l1(A_vertices: Sequence[Mat], faulty: Sequence[int], A_f: Mat, M_p: Mat, *,
               l1_max: float, closed_loop: Sequence[ClosedLoopBlock] | None = None,
-              decay: float = 0.0, solver: str = "CLARABEL") -> LmiResult:
+              decay: float = 0.0, L1_fixed: Mat | None = None,
+              solver: str = "CLARABEL") -> LmiResult:
     """Minimise the L2-gain bound gamma over ``L_1`` (see the module docstring).
 
     Parameters
@@ -82,6 +83,7 @@ def design_l1(A_vertices: Sequence[Mat], faulty: Sequence[int], A_f: Mat, M_p: M
     l1_max : bound on ``||L_1||`` (spectral norm)
     closed_loop : per point of ``A_vertices``, the controller's closed loop; None: observer only
     decay : minimum decay rate of ``A~_11`` (1/s), 0 = stability only
+    L1_fixed : analysis instead of synthesis: the bound of this ``L_1`` (``Y = p_1 L_1``)
     """
     cp: Any = importlib.import_module("cvxpy")  # optional (design extra); untyped use
 
@@ -93,7 +95,7 @@ def design_l1(A_vertices: Sequence[Mat], faulty: Sequence[int], A_f: Mat, M_p: M
     M1, M2 = Mperm[:q], Mperm[q:]  # M2 here: the rows of the non-faulty states
     k = M_p.shape[1]
     p1 = cp.Variable(nonneg=True)
-    Y = cp.Variable((q, n - q))
+    Y = cp.Variable((q, n - q)) if L1_fixed is None else p1 * np.atleast_2d(L1_fixed)
     g = cp.Variable(nonneg=True)
     eps = 1e-7
     cons = [p1 >= eps, cp.norm(Y, "fro") <= l1_max * p1]  # = spectral for q = 1
@@ -136,10 +138,11 @@ def design_l1(A_vertices: Sequence[Mat], faulty: Sequence[int], A_f: Mat, M_p: M
     except cp.error.SolverError:  # Clarabel gave up: the first-order solver
         solver = "SCS"
         prob.solve(solver=solver, eps=1e-9, max_iters=200_000)
-    if p1.value is None or Y.value is None or g.value is None:
+    if p1.value is None or g.value is None:
         return LmiResult(np.full((q, n - q), math.nan), math.nan, math.nan, str(prob.status),
                          solver)
-    L1 = np.asarray(Y.value) / float(p1.value)
+    L1 = (np.asarray(Y.value) / float(p1.value) if L1_fixed is None
+          else np.atleast_2d(np.asarray(L1_fixed, dtype=np.float64)))
     return LmiResult(L1, float(p1.value), float(g.value), str(prob.status), solver)
 
 

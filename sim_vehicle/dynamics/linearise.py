@@ -108,3 +108,52 @@ def lateral_lpv(airframe: str, tas_mps: tuple[float, ...], alt_m: float) -> tupl
                          source=f"sim_vehicle {airframe} linearised at {alt_m:g} m, TAS "
                                 f"{min(tas_mps):g}-{max(tas_mps):g} m/s")
     return model, err, ltis
+
+
+# the autopilot's lateral loops closed around the linearised plant ---------------------------------
+
+AUTOPILOT_STEP_S = 1.0e-6  # integrator derivatives from one tiny autopilot step
+
+
+def lateral_closed_loop(airframe: str, lti: LateralLti) -> tuple[Mat, Mat, Mat]:
+    """The simulator autopilot's lateral loops (bank hold at 0, sideslip 0; ``loops.py``)
+    closed around ``lti``, linearised numerically through the autopilot's own code.
+
+    State ``x_c = [phi, beta, p, r, int_p, int_r]`` (the roll-attitude and yaw-rate integrators),
+    input ``e_f`` = the yaw-rate gyro's fault-estimation error: the autopilot reads the corrected
+    gyro ``r - e_f`` (Chen2020 eq. 24). Returns ``A_c`` (6, 6), ``H_c`` (6, 1) and ``C_c``
+    (4, 6) with ``x_p = C_c x_c``; the uncertainty enters as ``[M_p; 0]``.
+    """
+    from sim_vehicle.autopilot.loops import Autopilot, Feedback, Targets
+    from sim_vehicle.dynamics.rigid_body import gravity_fast
+
+    af = load_airframe(airframe)
+    tr = lti.trim
+    lat = math.radians(LAT_DEG)
+    g = gravity_fast(lat, lti.alt_m)
+    from gcs_monitor.core.atmosphere import isa_density_kgpm3
+
+    rho = isa_density_kgpm3(lti.alt_m)
+    tg = Targets(lti.alt_m, lti.tas_mps, 0.0, bank_rad=0.0, beta_rad=0.0)
+
+    def f(x: Vec, e_f: float) -> Vec:
+        ap = Autopilot(af, tr, g)
+        ap.int_p, ap.int_r = float(x[4]), float(x[5])
+        fb = Feedback(alt_m=lti.alt_m, vd_mps=0.0, tas_mps=lti.tas_mps, rho_kgpm3=rho,
+                      phi=float(x[0]), theta=tr.alpha_rad, psi=0.0, p=float(x[2]), q=0.0,
+                      r=float(x[3]) - e_f, beta=float(x[1]), acc_z_mps2=-g, gamma_rad=0.0)
+        h = AUTOPILOT_STEP_S
+        da, _, dr, _ = ap.update(fb, tg, h)
+        xp = lti.A @ x[:4] + lti.B @ np.array([da, dr])
+        return np.concatenate([xp, [(ap.int_p - x[4]) / h, (ap.int_r - x[5]) / h]])
+
+    n = 6
+    e = STATE_STEP
+    A = np.zeros((n, n))
+    for j in range(n):
+        dx = np.zeros(n)
+        dx[j] = e
+        A[:, j] = (f(dx, 0.0) - f(-dx, 0.0)) / (2.0 * e)
+    H = ((f(np.zeros(n), e) - f(np.zeros(n), -e)) / (2.0 * e)).reshape(n, 1)
+    C = np.hstack([np.eye(N_X), np.zeros((N_X, 2))])
+    return A, H, C

@@ -117,3 +117,38 @@ def write_design(airframe: str, out: Path | None = None) -> tuple[Path, Observer
         path = path / f"{airframe}.json"
     path.write_text(json.dumps(design.to_dict(), indent=1) + "\n")
     return path, design
+
+
+def closed_loop_bounds(airframe: str, design: ObserverDesign, *, n_points: int = 6,
+                       l1_max: tuple[float, ...] = (0.3, 1.0)) -> list[list[Any]]:
+    """Chen2020 eq. 58 with the simulator's autopilot as the controller: the L2-gain bound from
+    xi to x_p of the autopilot's lateral loops on the corrected yaw rate coupled with the
+    observer's sliding dynamics, on a grid of trim speeds (the autopilot's gains are scheduled
+    on dynamic pressure, not affine in rho: a common P over the grid). Rows: uncertainty
+    distribution, L_1 (the shipped one, or designed jointly under a bound), gamma, c_1 = 1/gamma.
+    """
+    from gcs_monitor.filters.lpv_smo_design import ClosedLoopBlock
+    from sim_vehicle.dynamics.linearise import lateral_closed_loop, lateral_lti
+
+    env = ENVELOPES[airframe]
+    ltis = [lateral_lti(airframe, v, env.alt_m)
+            for v in np.linspace(env.tas_mps[0], env.tas_mps[1], n_points)]
+    loops = [lateral_closed_loop(airframe, lt) for lt in ltis]
+    A_p = [lt.A for lt in ltis]
+    sd = design.sensors["r"]
+    rows: list[list[Any]] = []
+    for label, w in (("Chen2020 eq. 60 (p, r)", (0.0, 0.0, 1.0, 1.0)),
+                     ("ours (beta x10, p, r)", DesignParams().xi_weights)):
+        M = uncertainty_matrix(w)
+        blocks = [ClosedLoopBlock(A, H, np.vstack([M, np.zeros((A.shape[0] - len(STATES),
+                                                                M.shape[1]))]), C)
+                  for A, H, C in loops]
+        res = design_l1(A_p, sd.faulty, sd.A_f, M, l1_max=1.0, closed_loop=blocks,
+                        L1_fixed=sd.L1)
+        rows.append([label, "shipped", res.gamma, 1.0 / res.gamma, res.status])
+        for lm in l1_max:
+            res = design_l1(A_p, sd.faulty, sd.A_f, M, l1_max=lm, closed_loop=blocks)
+            rows.append([label, f"joint, ||L_1|| <= {lm:g}: " + np.array2string(
+                res.L1[0], precision=3, separator=", "), res.gamma, 1.0 / res.gamma,
+                res.status])
+    return rows
