@@ -134,3 +134,24 @@ def test_reconstructs_constant_and_ramp_faults_on_the_linear_model(sensor: str) 
         # rad/s: a ramp's equivalent injection lags by the boundary layer's time constant
         np.testing.assert_allclose(f_hat[late], f[late], atol=2e-3 * math.pi / 180 * 10)
         np.testing.assert_allclose(f_hat[(t > 5.0) & (t < 29.0)], 0.0, atol=1e-3)
+
+
+def test_closed_loop_bound_with_the_simulators_autopilot() -> None:
+    """Chen2020 eq. 58 with the simulator's autopilot as controller: the loop is stable, the
+    bound LMI feasible, and designing L_1 jointly does not do worse than the shipped one."""
+    from gcs_monitor.filters.lpv_smo_design import ClosedLoopBlock
+    from sim_vehicle.dynamics.linearise import lateral_closed_loop, lateral_lti
+
+    ltis = [lateral_lti("transport", v, 1500.0) for v in (90.0, 180.0)]
+    blocks = []
+    for lt in ltis:
+        A, H, C = lateral_closed_loop("transport", lt)
+        assert np.max(np.linalg.eigvals(A).real) < 0.0
+        assert H[3, 0] > 0.0  # r' grows with e_f: the loop reads r - e_f (eq. 24)
+        blocks.append(ClosedLoopBlock(A, H, np.vstack([M_P, np.zeros((2, 2))]), C))
+    d = DESIGN.sensors["r"]
+    Ap = [lt.A for lt in ltis]
+    fixed = design_l1(Ap, d.faulty, A_F, M_P, l1_max=1.0, closed_loop=blocks, L1_fixed=d.L1)
+    joint = design_l1(Ap, d.faulty, A_F, M_P, l1_max=1.0, closed_loop=blocks)
+    assert fixed.status == joint.status == "optimal"
+    assert 0.0 < joint.gamma <= fixed.gamma * (1 + 1e-6)
