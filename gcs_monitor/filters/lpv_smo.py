@@ -30,7 +30,9 @@ estimate is the equivalent output injection through ``W = [0 A_f^{-1}]`` (eq. 21
 -e~_1`` (eq. 22): the fault estimation error is the (transformed) estimation error of the faulty
 state.
 
-Discretisation: explicit Euler at the step given (Chen2020 sec. VI: explicit Euler at 50 Hz).
+Discretisation: explicit Euler at the step given (Chen2020 sec. VI: explicit Euler at 50 Hz), in
+the numba kernel of ``filters/_lpv_smo_jit.py``; its numpy reference is
+``tests/reference/lpv_smo.py``.
 
 Sign convention of the paper (eq. 6): ``e_y = C(z - x_a)``; eq. 7 then drives ``e_y`` to zero.
 The paper's eq. 22 prints ``A~_11 e~_1 - M~_1 xi e_f = ...``: two equations run together; read
@@ -46,6 +48,7 @@ from typing import Any
 
 import numpy as np
 
+from gcs_monitor.core.kernels import load_kernels
 from gcs_monitor.core.types import Mat, Vec
 
 
@@ -129,6 +132,10 @@ class SmoMatrices:
     k: float
     delta: float
     design: SmoDesign = field(repr=False)
+    perm_arr: np.ndarray = field(init=False, repr=False)  # int64 copy of perm for the kernel
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "perm_arr", np.array(self.perm, dtype=np.int64))
 
 
 def smo_matrices(A: Mat, B: Mat, c: Mat, design: SmoDesign) -> SmoMatrices:
@@ -196,7 +203,8 @@ def smo_init(mats: SmoMatrices, y_p: Vec) -> SmoState:
 
 def smo_step(s: SmoState, mats: SmoMatrices, y_p: Vec, u: Vec, rho: tuple[float, float],
              dt_s: float) -> tuple[SmoState, SmoOutput]:
-    """One explicit-Euler step of eqs. 3, 6, 7 and 21.
+    """One explicit-Euler step of eqs. 3, 6, 7 and 21 (the numba kernel of
+    ``filters/_lpv_smo_jit.py``).
 
     Parameters
     ----------
@@ -210,19 +218,18 @@ def smo_step(s: SmoState, mats: SmoMatrices, y_p: Vec, u: Vec, rho: tuple[float,
     -------
     the state at t_{k+1} and the outputs at t_k
     """
+    kern = load_kernels("gcs_monitor.filters._lpv_smo_jit")
     n, q = mats.n, mats.q
-    y = np.asarray(y_p, dtype=np.float64)[list(mats.perm)]
-    yo = np.concatenate([y[q:], s.z_f])  # y = [y_p1; z_f]
-    e_y = s.z[q:] - yo
-    ne = math.sqrt(float(e_y @ e_y))
-    nu = (-mats.k / (ne + mats.delta)) * e_y  # eq. 7, sigmoid smoothing (sec. V)
-    f_hat = mats.A_f_inv @ nu[n - q:]  # eq. 21, W = [0 A_f^-1]
-    W = mats.W[0] + rho[0] * mats.W[1] + rho[1] * mats.W[2]
-    drift = W @ np.concatenate([s.z, np.asarray(u, dtype=np.float64), yo, [1.0]])
-    z_next = s.z + dt_s * (drift + mats.Gn @ nu)
-    zf_next = s.z_f + dt_s * (mats.A_f @ (y[:q] - s.z_f))  # eq. 3
+    z_next = np.empty(n + q)
+    zf_next = np.empty(q)
+    f_hat = np.empty(q)
     x_hat = np.empty(n)
-    x_hat[list(mats.perm)] = s.z[:n]
+    e_y = np.empty(n)
+    nu = np.empty(n)
+    kern.smo_step(s.z, s.z_f, mats.W, mats.Gn, mats.A_f, mats.A_f_inv, mats.perm_arr, mats.k,
+                  mats.delta, np.asarray(y_p, dtype=np.float64), np.asarray(u, dtype=np.float64),
+                  float(rho[0]), float(rho[1]), float(dt_s), z_next, zf_next, f_hat, x_hat, e_y,
+                  nu, np.empty(mats.W.shape[2]))
     return SmoState(z_next, zf_next), SmoOutput(f_hat, x_hat, e_y, nu)
 
 

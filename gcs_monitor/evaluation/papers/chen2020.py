@@ -31,6 +31,7 @@ from gcs_monitor.core.types import ChannelId
 from gcs_monitor.core.units import RAD2DEG
 from gcs_monitor.evaluation.report import md_table, pyplot, write_csv
 from gcs_monitor.evaluation.runner import run_parallel
+from gcs_monitor.families.yaw_rate.estimator import EY_CHANNEL
 from gcs_monitor.fdi.events import AlarmEvent, AlarmKind, AlarmState
 from gcs_monitor.monitor import Monitor
 from sim_vehicle.faults.profiles import FaultSpec
@@ -85,7 +86,7 @@ class _Capture:
         for e in step.estimates:
             if e.name == EST and e.available and e.t_us == frame.t_us:
                 (v,) = e.faults.values()
-                self.rows.append((frame.t_us * 1e-6, v, float(e.states["e_y_norm"][0])))
+                self.rows.append((frame.t_us * 1e-6, v, e.residuals[EY_CHANNEL]))
         for cs in step.channels:
             if cs.estimator == EST and cs.rms > self.j_max:
                 self.j_max = cs.rms
@@ -175,8 +176,7 @@ class LateralGyroInTheLoop:
                 e = self.est.step(fr)
                 if e.available and e.numerics_ok:
                     (self.f_hat,) = e.faults.values()
-                    self.rows.append((st.t_s, self.f_hat, f_true,
-                                      float(e.states["e_y_norm"][0])))
+                    self.rows.append((st.t_s, self.f_hat, f_true, e.residuals[EY_CHANNEL]))
         wc = wm.copy()
         wc[self.axis] -= self.f_hat
         return dataclasses.replace(st, omega_frd_radps=wc)

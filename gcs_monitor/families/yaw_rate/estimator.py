@@ -27,6 +27,10 @@ from gcs_monitor.telemetry.frame import Frame
 
 US_PER_S = 1_000_000
 AILERON, RUDDER = 0, 2  # surface indices of the telemetry contract
+# residuals of the Estimate: ||e_y|| (sliding maintained) and the fault estimate before the
+# equivalent-injection low-pass
+EY_CHANNEL = ChannelId("smo_ey", 0)
+RAW_CHANNEL = ChannelId("smo_f_raw", 0)
 
 
 @dataclass(frozen=True, slots=True)
@@ -63,8 +67,8 @@ def lateral_inputs(frame: Frame, stale_s: float) -> LateralInputs:
     alt = frame.baro_alt_m if math.isfinite(frame.baro_alt_m) else frame.alt_msl_m
     eas = eas_from_tas(tas_from_cas(v_cas, alt), alt) if math.isfinite(alt) else v_cas
     w = imu.omega_frd_radps
-    return LateralInputs(np.array([float(frame.euler_rad[0]), beta, float(w[0]), float(w[2])]),
-                         np.array([float(surf[AILERON]), float(surf[RUDDER])]), eas)
+    return LateralInputs(np.array((frame.euler_rad[0], beta, w[0], w[2]), dtype=np.float64),
+                         np.array((surf[AILERON], surf[RUDDER]), dtype=np.float64), eas)
 
 
 class YawRateEstimator:
@@ -94,6 +98,7 @@ class YawRateEstimator:
         self._step_us = round(cfg.observer.step_s * US_PER_S)
         self._gap_us = round(cfg.max_gap_s * US_PER_S)
         self._tau = cfg.observer.nu_filter_s
+        self._channels: dict[int, ChannelId] = {}
         self.reset()
 
     def reset(self) -> None:
@@ -133,18 +138,20 @@ class YawRateEstimator:
                           dt if dt > 0.0 else self.cfg.observer.step_s)
         self._s = s
         f = float(out.f_hat[0])
-        if not math.isfinite(f) or not np.all(np.isfinite(s.z)):
+        if not (math.isfinite(f) and math.isfinite(float(s.z.sum()))):
             self.reset()
             return Estimate(self.name, t, numerics_ok=False)
         a = 1.0 if self._tau <= 0.0 else min(1.0, dt / self._tau)
         self._f_lp += a * (f - self._f_lp)
         imu = frame.primary_imu
-        ch = ChannelId("gyro", imu.instance if imu is not None else 0, self.cfg.sensor)
-        y = float(inp.y_p[self.index])
+        inst = imu.instance if imu is not None else 0
+        ch = self._channels.get(inst)
+        if ch is None:
+            ch = self._channels[inst] = ChannelId("gyro", inst, self.cfg.sensor)
+        e_y = out.e_y
         return Estimate(
-            self.name, t, faults={ch: self._f_lp}, virtual={ch: y - self._f_lp},
-            residuals={ChannelId("ey", 0): float(np.linalg.norm(out.e_y))},
-            states={"x_hat": out.x_hat, "eas_mps": np.array([inp.eas_mps]),
-                    "e_y_norm": np.array([float(np.linalg.norm(out.e_y))]),
-                    "f_hat_raw": np.array([f])},
-            reinit=reinit, reinit_warmup_s=self.cfg.warmup_s if reinit else 0.0)
+            self.name, t, faults={ch: self._f_lp}, virtual={ch: float(inp.y_p[self.index])
+                                                             - self._f_lp},
+            residuals={EY_CHANNEL: math.sqrt(float(e_y @ e_y)), RAW_CHANNEL: f},
+            states={"x_hat": out.x_hat}, reinit=reinit,
+            reinit_warmup_s=self.cfg.warmup_s if reinit else 0.0)

@@ -155,3 +155,26 @@ def test_closed_loop_bound_with_the_simulators_autopilot() -> None:
     joint = design_l1(Ap, d.faulty, A_F, M_P, l1_max=1.0, closed_loop=blocks)
     assert fixed.status == joint.status == "optimal"
     assert 0.0 < joint.gamma <= fixed.gamma * (1 + 1e-6)
+
+
+def test_kernel_equals_the_numpy_reference() -> None:
+    """The numba step and tests/reference/lpv_smo.py on 500 random steps (same arithmetic up
+    to summation order: 1e-12 relative)."""
+    from tests.reference.lpv_smo import smo_step_reference
+
+    rng = np.random.default_rng(2)
+    for sensor in ("r", "p"):
+        mats = smo_matrices(MODEL.A, MODEL.B, MODEL.c, DESIGN.sensors[sensor])
+        s = smo_init(mats, rng.normal(0.0, 0.05, 4))
+        for _ in range(500):
+            y, u = rng.normal(0.0, 0.05, 4), rng.normal(0.0, 0.02, 2)
+            rho = (float(rng.uniform(80.0, 170.0)),) * 2
+            rho = (rho[0], rho[0] ** 2)
+            s1, o1 = smo_step(s, mats, y, u, rho, 0.02)
+            s2, o2 = smo_step_reference(s, mats, y, u, rho, 0.02)
+            np.testing.assert_allclose(s1.z, s2.z, rtol=1e-12, atol=1e-15)
+            np.testing.assert_allclose(s1.z_f, s2.z_f, rtol=1e-12, atol=1e-15)
+            for a, b in ((o1.f_hat, o2.f_hat), (o1.x_hat, o2.x_hat), (o1.e_y, o2.e_y),
+                         (o1.nu, o2.nu)):
+                np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-15)
+            s = s1
