@@ -16,9 +16,11 @@ from gcs_monitor.fdi.config import ChannelSetConfig
 
 SENSORS = ("r", "p")  # lateral gyro axes the family can monitor (the design has one each)
 
-# Threshold: 1.5 x the worst fault-free J of the reconstructed fault over the fault-free
-# S-turns, coordinated turns and doublets in turbulence up to sigma 3.54 m/s (calibration seeds;
-# `gcs-monitor evaluate --experiment chen2020_false_alarms` prints it).
+# Threshold: 2.4 x the worst fault-free J of the reconstructed fault (0.208 deg/s) over the
+# fault-free S-turns, coordinated turns and doublets of the transport in turbulence up to sigma
+# 3.54 m/s (`gcs-monitor evaluate --experiment chen2020_false_alarms` prints it; the 1.5 x rule
+# of the IMU family would give 0.31 deg/s: the margin covers other altitudes and speeds than
+# those 24 runs).
 THRESHOLD_DEGPS = 0.5
 
 
