@@ -461,8 +461,70 @@ def chen2020_roll_rate(out_dir: Path, jobs: int = 1, quick: bool = False) -> str
             + md_table(header, _ol_rows(runs, "p")) + "\n")
 
 
+class _Frames:
+    def __init__(self) -> None:
+        self.frames: list[Any] = []
+
+    def __call__(self, sysid: int, frame: Any, step: Any) -> None:
+        self.frames.append(frame)
+
+
+def _identify_job(job: tuple[str, str, int]) -> list[Any]:
+    """The Frames of one fault-free transport flight (what the monitor assembles from MAVLink)."""
+    manoeuvre, surface, seed = job
+    sc = case("chen2020_fault_free", seed=seed)
+    sc = dataclasses.replace(sc, name=f"ident_{manoeuvre}_{surface}", duration_s=150.0,
+                             manoeuvre=dataclasses.replace(sc.manoeuvre, kind=manoeuvre,
+                                                           surface=surface, amplitude=0.0
+                                                           if manoeuvre != "s_turn" else
+                                                           sc.manoeuvre.amplitude))
+    cap = _Frames()
+    cfg = MonitorConfig()
+    for fam in ("imu", "airdata", "yaw_rate"):
+        cfg = cfg.with_family(fam, enabled=False)
+    _feed(Monitor(cfg, on_step=cap), (pkt for _, _, pkt in iter_run(sc)))
+    return cap.frames
+
+
+def chen2020_identify(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
+    """``identify_lateral_model`` on the telemetry of clean flights (what ``calibrate`` would
+    give it on a real aircraft): fault-free S-turn and aileron / rudder doublets of the
+    transport in sigma 1 m/s turbulence, Frames from MAVLink; fit error and the identified
+    matrices against the simulator's linearisation at the flown speed."""
+    from gcs_monitor.models.lateral import identify_lateral_model
+    from sim_vehicle.dynamics.linearise import lateral_lti
+
+    flights = [("s_turn", "aileron", 201), ("doublet_3211", "aileron", 202),
+               ("doublet_3211", "rudder", 203)]
+    frames = [f for fr in run_parallel(_identify_job, flights, jobs, desc="chen2020_identify")
+              for f in fr]
+    model, err = identify_lateral_model(frames)
+    v = 0.5 * sum(model.eas_range_mps)
+    sc = case("chen2020_fault_free")
+    from gcs_monitor.core.atmosphere import tas_from_cas
+
+    lti = lateral_lti("transport", tas_from_cas(v, sc.initial.alt_m), sc.initial.alt_m)
+    A, B, c = model.matrices(v)
+    rows = []
+    for i, s in enumerate(("phi", "beta", "p", "r")):
+        rows.append([s, f"{err.nrmse[i]:.3f}",
+                     np.array2string(A[i], precision=3, separator=", "),
+                     np.array2string(lti.A[i], precision=3, separator=", "),
+                     np.array2string(B[i], precision=3, separator=", "),
+                     np.array2string(lti.B[i], precision=3, separator=", ")])
+    rel = [float(np.linalg.norm(A[2:] - lti.A[2:]) / np.linalg.norm(lti.A[2:])),
+           float(np.linalg.norm(B[2:] - lti.B[2:]) / np.linalg.norm(lti.B[2:]))]
+    return (f"Identified from {err.n_points} samples of {len(flights)} flights (EAS "
+            f"{model.eas_range_mps[0]:.1f}-{model.eas_range_mps[1]:.1f} m/s: one speed, so the "
+            f"model is constant); moment rows against the linearisation: A rel. error "
+            f"{rel[0]:.3f}, B {rel[1]:.3f}:\n\n"
+            + md_table(["state", "derivative NRMSE", "A row (identified)",
+                        "A row (linearised)", "B row (identified)", "B row (linearised)"],
+                       rows) + "\n")
+
+
 def experiments() -> dict[str, Callable[[Path, int, bool], str]]:
     return {"chen2020_design": chen2020_design, "chen2020_ftc": chen2020_ftc,
             "chen2020_open_loop": chen2020_open_loop,
             "chen2020_false_alarms": chen2020_false_alarms,
-            "chen2020_roll_rate": chen2020_roll_rate}
+            "chen2020_roll_rate": chen2020_roll_rate, "chen2020_identify": chen2020_identify}
