@@ -216,7 +216,8 @@ def lateral_samples(frames: Iterable[Any], *, period_s: float = 0.02,
                     stale_s: float = 0.5) -> LateralSamples:
     """The lateral signals of a flight's Frames, resampled every ``period_s`` (linear
     interpolation of each signal on its own valid instants; a Frame lacking an input leaves a
-    gap, and samples of a gap longer than ``stale_s`` are dropped).
+    gap, and samples of a gap longer than ``stale_s`` are dropped). Frames of several flights
+    may follow one another: where the time goes back a new flight starts.
 
     Uses ``euler_rad[0]``, ``ssa_rad``, the primary IMU's p and r, ``surf_pos_rad`` (aileron 0,
     rudder 2; ``surf_cmd_rad`` when positions are absent), the median valid CAS instance and
@@ -238,6 +239,13 @@ def lateral_samples(frames: Iterable[Any], *, period_s: float = 0.02,
         for c, v in zip(cols, row, strict=True):
             c.append(v)
     t = np.asarray(cols[0])
+    # several flights (or a reboot): each restarts its clock; lay them end to end with a gap
+    # longer than ``stale_s`` so that no interpolation or derivative crosses from one to the next
+    back = np.flatnonzero(np.diff(t) <= 0.0) + 1
+    if back.size:
+        t = t.copy()
+        for b in back:
+            t[b:] += t[b - 1] - t[b] + 2.0 * stale_s + period_s
     if t.size < 2:
         raise ValueError("the frames carry too few lateral samples (attitude, sideslip, body "
                          "rates, surfaces and airspeed all needed)")

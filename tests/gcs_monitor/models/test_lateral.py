@@ -3,6 +3,8 @@ identification from a flight."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -89,3 +91,25 @@ def test_identification_recovers_a_known_model() -> None:
         A1, B1, _ = ident.matrices(v)
         assert np.linalg.norm(A1[2:] - A0[2:]) / np.linalg.norm(A0[2:]) < 0.05
         assert np.linalg.norm(B1[2:] - B0[2:]) / np.linalg.norm(B0[2:]) < 0.05
+
+
+def test_samples_of_several_flights_are_kept_apart() -> None:
+    from gcs_monitor.models.lateral import lateral_samples
+    from gcs_monitor.telemetry.frame import Frame, ImuSample
+
+    def flight(phase: float) -> list[Frame]:
+        out = []
+        for k in range(200):
+            t = k * 10_000
+            x = math.sin(0.5 * k * 0.01 + phase)
+            out.append(Frame(t_us=t, imu=[ImuSample(t, 0, np.zeros(3), np.array([x, 0, x]))],
+                             euler_rad=np.array([x, 0.0, 0.0]), att_age_s=0.0, ssa_rad=x,
+                             cas_mps=np.full(3, 30.0), cas_age_s=np.zeros(3), baro_alt_m=0.0,
+                             surf_pos_rad=np.array([x, 0.0, x])))
+        return out
+
+    s = lateral_samples(flight(0.0) + flight(1.0), period_s=0.01)
+    assert np.all(np.diff(s.t_s) > 0.0)
+    assert s.t_s.size >= 396  # both flights, nothing across the join
+    # every sample is one of the flights' values (no interpolation across the join)
+    assert np.allclose(s.x[:, 0], s.x[:, 3]) and np.all(np.abs(s.x[:, 0]) <= 1.0)
