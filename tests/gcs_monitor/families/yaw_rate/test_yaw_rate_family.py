@@ -95,3 +95,22 @@ def test_yaw_rate_bias_alarmed_and_corrected() -> None:
     est = outs[-1].estimates[0]
     assert abs(est.faults[CH] - 3.0 * DEG) < 0.05 * DEG  # rad/s, linear model: exact in the end
     assert abs(est.virtual[CH] - r_true[-1]) < 0.05 * DEG  # the corrected gyro (eq. 24)
+
+
+def test_two_families_alarming_one_channel_are_both_active() -> None:
+    """imu_ts and yaw_rate_smo both judge gyro0.r: the health keeps each one's alarm until it
+    clears."""
+    from gcs_monitor.fdi.events import AlarmEvent, FaultType
+
+    p = VehiclePipeline(1, [])
+
+    def ev(t: int, est: str, state: AlarmState) -> AlarmEvent:
+        return AlarmEvent(t_us=t, channel=CH, state=state, kind=AlarmKind.SENSOR_FAULT,
+                          fault_type=FaultType.DRIFT, magnitude=0.1, residual_rms=0.1,
+                          threshold=0.05, estimator=est, message="", vehicle=1)
+
+    p.step(Frame(t_us=0, imu=[None]), [ev(0, "imu_ts", AlarmState.RAISED),
+                                       ev(0, "yaw_rate_smo", AlarmState.RAISED)])
+    p.step(Frame(t_us=10, imu=[None]), [ev(10, "yaw_rate_smo", AlarmState.CLEARED)])
+    active = p.health()["active_alarms"]
+    assert [(a["channel"], a["estimator"]) for a in active] == [(str(CH), "imu_ts")]
