@@ -18,14 +18,14 @@ fault-free residual floor. From flights known to be fault-free this derives, in 
 
 It prints, per flight, the largest J against the new J_th (the margin each flight keeps) and
 writes a TOML file with only what it changed, which ``replay`` and ``live`` accept
-(``--config``). Flights: ``.tlog`` files and the CSV layouts ``gcs-monitor convert`` reads.
+(``--config``). Flights: any log the monitor reads (``.tlog``, ArduPilot ``.bin``/``.log``, PX4
+``.ulg``, the CSV layouts).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-import tempfile
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -35,10 +35,8 @@ import numpy as np
 
 from gcs_monitor.config import MonitorConfig
 from gcs_monitor.config.loader import config_tables, toml_value
-from gcs_monitor.convert.formats import detect_format
-from gcs_monitor.convert.writer import convert_file
 from gcs_monitor.fdi.records import StepOutput
-from gcs_monitor.link.transports import TlogSource
+from gcs_monitor.link.logs import open_log
 from gcs_monitor.monitor import Monitor
 from gcs_monitor.telemetry.frame import Frame
 
@@ -79,15 +77,11 @@ class Calibration:
     margin: float
 
 
-def flight_chunks(path: Path, tmp: Path) -> Iterator[tuple[bytes, float]]:
-    """MAVLink bytes of a flight: a .tlog as it is, a CSV layout converted to a tlog first."""
-    fmt = detect_format(path)
-    if fmt == "tlog":
-        yield from TlogSource(path)
-        return
-    out = tmp / (path.stem + ".tlog")
-    convert_file(path, out, fmt=fmt)
-    yield from TlogSource(out)
+def flight_chunks(path: Path) -> Iterator[tuple[bytes, float]]:
+    """MAVLink bytes of a flight in any format the monitor reads (``.tlog``, ArduPilot
+    ``.bin``/``.log``, PX4 ``.ulg``, the CSV layouts; :func:`gcs_monitor.link.logs.open_log`)."""
+    with open_log(path).source as src:
+        yield from src
 
 
 def _mad_sigma(parts: Sequence[np.ndarray], scale: float) -> float:
@@ -141,11 +135,11 @@ class _NoiseRecorder:
                         dest.append(v[:, i] - v[:, j])
 
 
-def _replay(path: Path, tmp: Path, cfg: MonitorConfig,
+def _replay(path: Path, cfg: MonitorConfig,
             on_step: Callable[[int, Frame, StepOutput], None]) -> float:
     """Replay one flight through ``cfg``; its duration (vehicle s)."""
     mon = Monitor(cfg, on_step=on_step)
-    for data, wall in flight_chunks(path, tmp):
+    for data, wall in flight_chunks(path):
         mon.feed(data, wall)
     mon.finish()
     return max((v.last_t_us for v in mon.vehicles.values()), default=0) * 1e-6
@@ -233,29 +227,27 @@ def calibrate(flights: Sequence[Path], base: MonitorConfig | None = None, *,
     cfg = base if base is not None else MonitorConfig()
     samples = _Noise()
     stats: list[FlightStats] = []
-    with tempfile.TemporaryDirectory(prefix="gcs_calibrate_") as tmpdir:
-        tmp = Path(tmpdir)
-        for i, path in enumerate(flights):
-            progress(f"[1/2] noise {i + 1}/{len(flights)}: {path.name}")
-            rec = _NoiseRecorder()
-            dur = _replay(path, tmp, _observing(cfg), rec)
-            rec.into(samples)
-            stats.append(FlightStats(path.name, dur))
-        noise = {
-            "acc": _mad_sigma(samples.acc, math.sqrt(2.0)),
-            "gyro": _mad_sigma(samples.gyro, math.sqrt(2.0)),
-            "gps_vel": _mad_sigma(samples.gps_vel, math.sqrt(6.0)),
-            "euler": _mad_sigma(samples.euler, math.sqrt(6.0)),
-            "aoa": _mad_sigma(samples.aoa_pair, math.sqrt(2.0)),
-            "cas": _mad_sigma(samples.cas_pair, math.sqrt(2.0)),
-        }
-        noisy = with_noise(cfg, noise)
-        observe = _observing(noisy)
-        for i, path in enumerate(flights):
-            progress(f"[2/2] residuals {i + 1}/{len(flights)}: {path.name}")
-            jr = _JRecorder()
-            _replay(path, tmp, observe, jr)
-            stats[i].j_max = jr.j
+    for i, path in enumerate(flights):
+        progress(f"[1/2] noise {i + 1}/{len(flights)}: {path.name}")
+        rec = _NoiseRecorder()
+        dur = _replay(path, _observing(cfg), rec)
+        rec.into(samples)
+        stats.append(FlightStats(path.name, dur))
+    noise = {
+        "acc": _mad_sigma(samples.acc, math.sqrt(2.0)),
+        "gyro": _mad_sigma(samples.gyro, math.sqrt(2.0)),
+        "gps_vel": _mad_sigma(samples.gps_vel, math.sqrt(6.0)),
+        "euler": _mad_sigma(samples.euler, math.sqrt(6.0)),
+        "aoa": _mad_sigma(samples.aoa_pair, math.sqrt(2.0)),
+        "cas": _mad_sigma(samples.cas_pair, math.sqrt(2.0)),
+    }
+    noisy = with_noise(cfg, noise)
+    observe = _observing(noisy)
+    for i, path in enumerate(flights):
+        progress(f"[2/2] residuals {i + 1}/{len(flights)}: {path.name}")
+        jr = _JRecorder()
+        _replay(path, observe, jr)
+        stats[i].j_max = jr.j
     j_all: dict[str, float] = {}
     for st in stats:
         for k, v in st.j_max.items():

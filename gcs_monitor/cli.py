@@ -63,6 +63,13 @@ def _sinks_factory(args: argparse.Namespace, cfg: MonitorConfig) -> Callable[[in
             state["zenoh_listening"] = True
             sinks.append(ZenohSink(sysid, listen=listen, connect=connect,
                                    estimate_rate_hz=cfg.sinks.estimate_rate_hz))
+        if getattr(args, "mavlink_alarms", None):
+            from gcs_monitor.sinks.mavlink_sink import COMPID_DEFAULT, MavlinkAlarmSink
+
+            sinks.append(MavlinkAlarmSink(
+                args.mavlink_alarms, vehicle=sysid, sysid=args.mavlink_alarms_sysid,
+                compid=args.mavlink_alarms_compid or COMPID_DEFAULT,
+                named_values=args.mavlink_named_values, queue_size=cfg.sinks.queue_size))
         if journal is not None:
             sinks.append(journal)
         return sinks
@@ -79,11 +86,38 @@ def _add_sink_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--zenoh-connect", action="append", help="router/peer endpoint to connect")
     p.add_argument("--journal", type=Path, help="append alarms as JSON lines to this file")
     p.add_argument("--record-tlog", type=Path, help="record the raw input to a .tlog")
+    p.add_argument("--mavlink-alarms", metavar="URL",
+                   help="send every alarm raise and clear as STATUSTEXT to a ground station "
+                        "(udpout:HOST:PORT or tcp:HOST:PORT)")
+    p.add_argument("--mavlink-alarms-sysid", type=int, default=None,
+                   help="source system id of the alarms (default: the vehicle's, so ground "
+                        "stations show them with its messages; 255 = a GCS)")
+    p.add_argument("--mavlink-alarms-compid", type=int, default=None,
+                   help="source component id of the alarms (default 191, "
+                        "MAV_COMP_ID_ONBOARD_COMPUTER)")
+    p.add_argument("--mavlink-named-values", action="store_true",
+                   help="also send each set's fused value as NAMED_VALUE_FLOAT")
     p.add_argument("--quiet", action="store_true", help="print only the summary")
 
 
+def _add_log_args(p: argparse.ArgumentParser) -> None:
+    from gcs_monitor.convert.logs import FORMATS
+
+    p.add_argument("--format", choices=sorted(FORMATS),
+                   help="force the log format (default: detected from the content)")
+    p.add_argument("--map", type=Path, metavar="COLUMNS.toml",
+                   help="column map of a generic CSV (gcs_monitor/convert/maps/ has examples)")
+    p.add_argument("--imu-rate-hz", type=float, default=None,
+                   help="highest IMU rate given to the monitor from a .bin/.ulg (block means "
+                        "above it; default 100 Hz, the contract's HIGHRES_IMU rate)")
+
+
 def _run_source(src: Any, args: argparse.Namespace, *, duration_s: float | None = None,
-                progress: Any = None) -> int:
+                progress: Any = None, sinks_for: Callable[[int], list[Any]] | None = None,
+                on_wall: Callable[[Any, float], None] | None = None,
+                raw: Callable[[Any], None] | None = None,
+                summary: bool = True) -> Any:
+    """Run a byte source through a Monitor; return the Monitor (its health and events)."""
     from gcs_monitor.monitor import Monitor
 
     cfg = load_config(args.config)
@@ -92,8 +126,14 @@ def _run_source(src: Any, args: argparse.Namespace, *, duration_s: float | None 
         from gcs_monitor.sinks.tlog_writer import TlogWriter
 
         tlog_out = TlogWriter(args.record_tlog)
-    monitor = Monitor(cfg, sinks_for=_sinks_factory(args, cfg),
-                      raw_sink=tlog_out.write_message if tlog_out else None)
+    raws = [f for f in (tlog_out.write_message if tlog_out else None, raw) if f is not None]
+
+    def raw_sink(msg: Any) -> None:
+        for f in raws:
+            f(msg)
+
+    monitor = Monitor(cfg, sinks_for=sinks_for or _sinks_factory(args, cfg),
+                      raw_sink=raw_sink if raws else None)
     t0 = time.monotonic()
     next_health = t0
     try:
@@ -102,6 +142,8 @@ def _run_source(src: Any, args: argparse.Namespace, *, duration_s: float | None 
                 if not args.quiet:
                     print(format_event(ev), flush=True)
             now = time.monotonic()
+            if on_wall is not None:
+                on_wall(monitor, now)
             if now >= next_health:
                 monitor.source_counters = {"dropped_chunks": src.dropped_chunks,
                                            "dropped_bytes": src.dropped_bytes,
@@ -127,8 +169,15 @@ def _run_source(src: Any, args: argparse.Namespace, *, duration_s: float | None 
             tlog_out.close()
         if progress is not None:
             progress.close()
-    _print_summary(monitor, time.monotonic() - t0)
-    return 0
+    monitor.wall_s = time.monotonic() - t0
+    if summary:
+        _print_summary(monitor, monitor.wall_s)
+    return monitor
+
+
+def usable(monitor: Any) -> bool:
+    """Whether a replay gave the monitor any vehicle Frame to judge."""
+    return any(v.assembler.frames_out > 0 for v in monitor.vehicles.values())
 
 
 def _print_summary(monitor: Any, wall_s: float) -> None:
@@ -151,7 +200,7 @@ def _print_summary(monitor: Any, wall_s: float) -> None:
             print("  " + family_line(name, fam))
     rows = summarise_alarms(monitor.events)
     if rows:
-        print("\nalarms (first raise per channel):")
+        print("\nalarms (per channel: first raise | final state):")
         for r in rows:
             print("  " + r)
     else:
@@ -164,24 +213,124 @@ def cmd_live(args: argparse.Namespace) -> int:
 
     src = open_source(args.url, idle_timeout_s=args.idle_timeout)
     print(f"listening on {args.url} (Ctrl-C to stop)", flush=True)
-    return _run_source(src, args, duration_s=args.duration)
+    if not args.request_rates:
+        _run_source(src, args, duration_s=args.duration)
+        return 0
+    from gcs_monitor.link.rates import RateRequester, rates_table
+
+    req = RateRequester(src.write, measure_s=args.rates_report_after)
+
+    def poll(monitor: Any, now: float) -> None:
+        res = req.poll(now)
+        if res is not None:
+            print("\nmessage rates (requested with MAV_CMD_SET_MESSAGE_INTERVAL, "
+                  "REQUEST_DATA_STREAM where not accepted):\n" + rates_table(res), flush=True)
+
+    _run_source(src, args, duration_s=args.duration, raw=req.on_message, on_wall=poll)
+    return 0
+
+
+EXIT_UNUSABLE = 2  # a file could not be used at all (missing, empty, unknown, no data)
+EXIT_PARTIAL = 3  # every file was used, but some only in part (cut mid-record)
+
+
+def _log_sinks(args: argparse.Namespace, path: Path, several: bool) -> argparse.Namespace:
+    """Per-file output names when several logs are replayed in one command."""
+    if not several or not getattr(args, "rrd", None):
+        return args
+    a = argparse.Namespace(**vars(args))
+    a.rrd = args.rrd.with_name(f"{args.rrd.stem}_{path.stem}{args.rrd.suffix}")
+    return a
+
+
+def _open_log(path: Path, args: argparse.Namespace, progress: Any = None) -> Any:
+    from gcs_monitor.link.logs import open_log
+
+    return open_log(path, args.format, speed=getattr(args, "speed", None),
+                    column_map=args.map, imu_rate_hz=args.imu_rate_hz, on_progress=progress)
+
+
+def _batch_end(failures: list[tuple[Path, str]], partial: list[Path], n: int) -> int:
+    if failures:
+        print(f"\n{len(failures)} of {n} files could not be used:", file=sys.stderr)
+        for path, why in failures:
+            print(f"  {path}: {why}", file=sys.stderr)
+    if partial:
+        print(f"{len(partial)} of {n} files were read only in part: "
+              + ", ".join(str(p) for p in partial), file=sys.stderr)
+    return EXIT_UNUSABLE if failures else (EXIT_PARTIAL if partial else 0)
+
+
+def _no_vehicle(path: Path, fmt: str) -> str:
+    from gcs_monitor.convert.logs import KNOWN_FORMATS
+
+    return (f"{path}: no vehicle telemetry the monitor can use in this {fmt} (no vehicle "
+            f"sent IMU messages); expected {KNOWN_FORMATS}")
+
+
+def replay_one(path: Path, args: argparse.Namespace, *, several: bool = False,
+               sinks_for: Callable[[int], list[Any]] | None = None,
+               on_step: Any = None) -> tuple[Any, Any]:
+    """Replay one log: (monitor, LogInfo). Raises LogError when the file cannot be used."""
+    from tqdm import tqdm
+
+    from gcs_monitor.convert.logs import LogError
+
+    bar = tqdm(total=100, unit="%", desc=path.name,
+               disable=args.quiet or not sys.stderr.isatty())
+    last = [0.0]
+
+    def progress(done: int, total: int) -> None:
+        pct = 100.0 * done / total if total else 0.0
+        bar.update(pct - last[0])
+        last[0] = pct
+
+    opened = _open_log(path, args, progress)
+    a = _log_sinks(args, path, several)
+    monitor = _run_source(opened.source, a, progress=bar, sinks_for=sinks_for, summary=False)
+    info = opened.info
+    if info.fmt == "tlog":
+        info.messages = _tlog_counts(monitor)
+        if getattr(opened.source, "truncated_bytes", 0):
+            info.warnings.append(f"the file ends {opened.source.truncated_bytes} bytes into "
+                                 "an incomplete record (cut file?); read up to it")
+    if not usable(monitor):
+        raise LogError(_no_vehicle(path, info.fmt))
+    return monitor, info
+
+
+def _tlog_counts(monitor: Any) -> dict[str, int]:
+    out: dict[str, int] = {}
+    for st in monitor.decoder.stats.values():
+        for k, n in st.per_type.items():
+            out[k] = out.get(k, 0) + int(n)
+    return out
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
-    from tqdm import tqdm
+    from gcs_monitor.convert.logs import LogError
 
-    from gcs_monitor.link.transports import TlogSource
-
-    bar = tqdm(total=args.tlog.stat().st_size if args.tlog.exists() else 0, unit="B",
-               unit_scale=True, desc=args.tlog.name, disable=args.quiet or not sys.stderr.isatty())
-    last = [0]
-
-    def progress(done: int, total: int) -> None:
-        bar.update(done - last[0])
-        last[0] = done
-
-    src = TlogSource(args.tlog, speed=args.speed, on_progress=progress)
-    return _run_source(src, args, progress=bar)
+    failures: list[tuple[Path, str]] = []
+    partial: list[Path] = []
+    several = len(args.inputs) > 1
+    for path in args.inputs:
+        if several:
+            print(f"\n== {path} ==", flush=True)
+        try:
+            monitor, info = replay_one(path, args, several=several)
+        except LogError as exc:
+            print(f"gcs-monitor: {exc}", file=sys.stderr)
+            failures.append((path, str(exc).removeprefix(f"{path}: ")))
+            continue
+        print(f"{path.name}: {info.fmt}"
+              + (f", {info.vehicle}" if info.vehicle else "")
+              + (f", {info.duration_s:.1f} s" if info.duration_s else ""))
+        for w in info.warnings:
+            print(f"gcs-monitor: {path}: {w}", file=sys.stderr)
+        if any("incomplete record" in w for w in info.warnings):
+            partial.append(path)
+        _print_summary(monitor, monitor.wall_s)
+    return _batch_end(failures, partial, len(args.inputs))
 
 
 def cmd_alarms(args: argparse.Namespace) -> int:
@@ -193,20 +342,93 @@ def cmd_alarms(args: argparse.Namespace) -> int:
 
 
 def cmd_convert(args: argparse.Namespace) -> int:
+    from gcs_monitor.convert.formats import ConvertError
+    from gcs_monitor.convert.logs import LogError, detect_log_format
     from gcs_monitor.convert.writer import convert_file, lu2016_table2_injector
 
     args.out.mkdir(parents=True, exist_ok=True)
     inject = lu2016_table2_injector() if args.inject == "lu2016" else None
+    failures: list[tuple[Path, str]] = []
+    partial: list[Path] = []
     for path in args.inputs:
         out = args.out / (path.stem + (".lu2016" if inject else "") + ".tlog")
-        res = convert_file(path, out, inject_imu=inject)
-        n = sum(res.messages.values())
-        print(f"{path.name}: {res.fmt}, {res.duration_s:.1f} s, {n} messages -> {out}")
-        if inject is not None and res.injected_imu is not None:
-            import numpy as np
+        try:
+            fmt = "csvmap" if args.map else (args.format or detect_log_format(path))
+            if fmt in ("zipline", "onspeed", "alfa") or inject is not None:
+                res = convert_file(path, out, fmt=fmt if fmt != "csvmap" else None,
+                                   inject_imu=inject)
+                n = sum(res.messages.values())
+                print(f"{path.name}: {res.fmt}, {res.duration_s:.1f} s, {n} messages -> {out}")
+                if inject is not None and res.injected_imu is not None:
+                    import numpy as np
 
-            np.savez(out.with_suffix(".truth.npz"), t_s=res.t_s, imu_fault=res.injected_imu)
-    return 0
+                    np.savez(out.with_suffix(".truth.npz"), t_s=res.t_s,
+                             imu_fault=res.injected_imu)
+                continue
+            info = _write_log_tlog(path, out, args, fmt)
+        except (LogError, ConvertError) as exc:
+            print(f"gcs-monitor: {exc}", file=sys.stderr)
+            failures.append((path, str(exc).removeprefix(f"{path}: ")))
+            continue
+        n = sum(info.messages.values())
+        print(f"{path.name}: {info.fmt}, {info.duration_s:.1f} s, {n} messages -> {out}")
+        for w in info.warnings:
+            print(f"gcs-monitor: {path}: {w}", file=sys.stderr)
+        if any("incomplete record" in w for w in info.warnings):
+            partial.append(path)
+    return _batch_end(failures, partial, len(args.inputs))
+
+
+def _write_log_tlog(path: Path, out: Path, args: argparse.Namespace, fmt: str) -> Any:
+    """Any log the monitor reads, written as the contract .tlog it replays."""
+    import shutil
+
+    from gcs_monitor.link.logs import open_log
+
+    if fmt == "tlog":
+        shutil.copyfile(path, out)
+        from gcs_monitor.convert.logs import LogInfo
+
+        return LogInfo(path=path, fmt="tlog")
+    opened = open_log(path, fmt, column_map=args.map, imu_rate_hz=args.imu_rate_hz)
+    from gcs_monitor.link.transports import TLOG_HEADER
+
+    tmp = out.with_suffix(out.suffix + ".tmp")
+    try:
+        with open(tmp, "wb") as fh:
+            _tlog_records(opened.source, fh, TLOG_HEADER)
+        tmp.replace(out)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return opened.info
+
+
+def _tlog_records(src: Any, fh: Any, header: Any) -> None:
+    from gcs_monitor.link.decode import Decoder
+
+    dec = Decoder(resync=False)
+    for data, wall in src:
+        for m in dec.feed(data, wall):
+            fh.write(header.pack(int(round(wall * 1e6))) + bytes(m.get_msgbuf()))
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+    from gcs_monitor.convert.logs import LogError
+    from gcs_monitor.report import write_report
+
+    failures: list[tuple[Path, str]] = []
+    partial: list[Path] = []
+    cfg = load_config(args.config)
+    for path in args.inputs:
+        try:
+            page = write_report(path, args.out, cfg=cfg, fmt=args.format, column_map=args.map,
+                                imu_rate_hz=args.imu_rate_hz)
+        except LogError as exc:
+            print(f"gcs-monitor: {exc}", file=sys.stderr)
+            failures.append((path, str(exc).removeprefix(f"{path}: ")))
+            continue
+        print(f"{path.name}: report -> {page}")
+    return _batch_end(failures, partial, len(args.inputs))
 
 
 def cmd_config(args: argparse.Namespace) -> int:
@@ -300,13 +522,28 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--duration", type=float, help="stop after this many seconds")
     s.add_argument("--idle-timeout", type=float,
                    help="stop after this long without data, counted from the first data (s)")
+    s.add_argument("--request-rates", action="store_true",
+                   help="ask the autopilot for the message rates the families need "
+                        "(MAV_CMD_SET_MESSAGE_INTERVAL, else REQUEST_DATA_STREAM) and report "
+                        "the rates measured")
+    s.add_argument("--rates-report-after", type=float, default=5.0,
+                   help="seconds after the requests to measure and report the rates")
     _add_sink_args(s)
     s.set_defaults(func=cmd_live)
-    s = sub.add_parser("replay", help="replay a .tlog through the monitor")
-    s.add_argument("tlog", type=Path)
+    s = sub.add_parser("replay", help="replay flight logs (.tlog, ArduPilot .bin/.log, PX4 .ulg, "
+                                      "CSV) through the monitor")
+    s.add_argument("inputs", nargs="+", type=Path, metavar="LOG")
     s.add_argument("--speed", type=float, help="speed factor (default: as fast as possible)")
+    _add_log_args(s)
     _add_sink_args(s)
     s.set_defaults(func=cmd_replay)
+    s = sub.add_parser("report", help="post-flight fault report: one self-contained HTML page "
+                                      "per log")
+    s.add_argument("inputs", nargs="+", type=Path, metavar="LOG")
+    s.add_argument("--out", type=Path, default=Path("report"), help="folder for the pages")
+    s.add_argument("--config", type=Path, help="monitor TOML (defaults suit the simulator)")
+    _add_log_args(s)
+    s.set_defaults(func=cmd_report)
     s = sub.add_parser("alarms", help="subscribe to the Zenoh alarm stream and print alarms")
     s.add_argument("keyexpr", nargs="?", default="gcs/*/alarm")
     s.add_argument("--connect", action="append", help=f"endpoint (default {DEFAULT_ZENOH})")
@@ -357,8 +594,10 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--out", type=Path, help="file or folder (default: the shipped designs)")
     s.set_defaults(func=cmd_yaw_design, airframe=None)
     s = sub.add_parser("convert",
-                       help="convert real flight data (Zipline/OnSpeed/ALFA CSV) to .tlog")
+                       help="convert flight logs (ArduPilot .bin/.log, PX4 .ulg, CSV) to the "
+                            "contract .tlog")
     s.add_argument("inputs", nargs="+", type=Path)
+    _add_log_args(s)
     s.add_argument("--out", type=Path, default=Path("converted"))
     s.add_argument("--inject", choices=["none", "lu2016"], default="none",
                    help="inject Lu2016 Table 2 IMU faults open-loop (truth written beside)")

@@ -9,8 +9,9 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
+from gcs_monitor.core.types import ChannelId
 from gcs_monitor.core.units import MPS2KT, RAD2DEG
-from gcs_monitor.fdi.events import AlarmEvent
+from gcs_monitor.fdi.events import OBSERVED_TYPES, AlarmEvent, AlarmState, FaultType
 
 
 def display_value(kind: str, value_si: float) -> tuple[float, str]:
@@ -26,17 +27,34 @@ def display_value(kind: str, value_si: float) -> tuple[float, str]:
     return value_si, ""
 
 
-def format_event(ev: AlarmEvent) -> str:
-    """One line per alarm event: vehicle time, state, channel, kind, fault type, magnitude in
-    display units, estimator and message."""
-    ch = ev.channel
-    name = f"{ch.kind}{'' if ch.instance < 0 else ch.instance}{'.' + ch.axis if ch.axis else ''}"
+def channel_label(ch: ChannelId) -> str:
+    """An operator's name of a channel: ``aoa1``, ``acc0.x``, ``aoa[set]`` for a whole set."""
     if ch.instance < 0:
-        name = f"{ch.kind}[set]"
-    mag, unit = display_value(ch.kind, ev.magnitude)
-    mag_s = f"{mag:+.3g} {unit}" if math.isfinite(mag) else "-"
+        return f"{ch.kind}[set]{'.' + ch.axis if ch.axis else ''}"
+    return f"{ch.kind}{ch.instance}{'.' + ch.axis if ch.axis else ''}"
+
+
+def magnitude_text(kind: str, value_si: float) -> str:
+    """A magnitude in display units, ``-`` when there is none (NaN: a lost set, no data)."""
+    mag, unit = display_value(kind, value_si)
+    return f"{mag:+.3g} {unit}".rstrip() if math.isfinite(mag) else "-"
+
+
+def type_text(ev: AlarmEvent) -> str:
+    """The fault type, with its confidence when it was inferred by the classifier."""
+    ft = ev.fault_type
+    if ft is FaultType.UNKNOWN or ft in OBSERVED_TYPES or not math.isfinite(ev.confidence):
+        return ft.value
+    return f"{ft.value} ({ev.confidence:.2f})"
+
+
+def format_event(ev: AlarmEvent) -> str:
+    """One line per alarm event: vehicle time, state, channel, kind, fault type (and its
+    confidence), magnitude in display units, estimator and message."""
+    name = channel_label(ev.channel)
+    mag_s = magnitude_text(ev.channel.kind, ev.magnitude)
     return (f"t={ev.t_us / 1e6:8.2f}s  {ev.state.value.upper():8s} {name:12s} {ev.kind.value:14s} "
-            f"{ev.fault_type.value:11s} {mag_s:14s} ({ev.estimator}) {ev.message}")
+            f"{type_text(ev):18s} {mag_s:14s} ({ev.estimator}) {ev.message}")
 
 
 def family_line(name: str, fam: dict[str, Any]) -> str:
@@ -49,20 +67,40 @@ def family_line(name: str, fam: dict[str, Any]) -> str:
     return f"{name:9s} {fam['state']}{cov}{why}  [{fam['title']}]"
 
 
-def summarise_alarms(events: Sequence[AlarmEvent]) -> list[str]:
-    """One line per channel that raised, in order of the first raise: its kind and time, and the
-    channel's latest fault type, magnitude (display units) and state (active or cleared)."""
-    first: dict[Any, AlarmEvent] = {}
-    last: dict[Any, AlarmEvent] = {}
+def first_and_final(events: Sequence[AlarmEvent]) -> list[tuple[AlarmEvent, AlarmEvent, int]]:
+    """Per channel that raised, in order of its first raise: (first RAISED event, the channel's
+    last event, how many times it was raised)."""
+    first: dict[ChannelId, AlarmEvent] = {}
+    last: dict[ChannelId, AlarmEvent] = {}
+    raised: dict[ChannelId, int] = {}
     for ev in events:
-        if ev.state.value == "raised" and ev.channel not in first:
-            first[ev.channel] = ev
-        last[ev.channel] = ev
+        if ev.state is AlarmState.RAISED:
+            first.setdefault(ev.channel, ev)
+            raised[ev.channel] = raised.get(ev.channel, 0) + 1
+        if ev.channel in first:
+            last[ev.channel] = ev
+    return [(ev, last[ch], raised[ch])
+            for ch, ev in sorted(first.items(), key=lambda kv: kv[1].t_us)]
+
+
+def final_state(ev: AlarmEvent) -> str:
+    return "cleared" if ev.state is AlarmState.CLEARED else "active"
+
+
+def summarise_alarms(events: Sequence[AlarmEvent]) -> list[str]:
+    """One line per channel that raised, in order of the first raise: the first raise (time,
+    fault type, magnitude) and, separately, the final state (active or cleared, since when, and
+    the type and magnitude it ended with). Magnitudes in display units; ``-`` where there is none
+    (a lost set, no data). The final state is the channel's last event: its time, active or
+    cleared, and the type and magnitude it reported."""
     out = []
-    for ch, ev in sorted(first.items(), key=lambda kv: kv[1].t_us):
-        latest = last[ch]
-        mag, unit = display_value(ch.kind, latest.magnitude)
-        state = "cleared" if latest.state.value == "cleared" else "active"
-        out.append(f"{str(ch):12s} {ev.kind.value:14s} raised t={ev.t_us / 1e6:7.2f}s  "
-                   f"{latest.fault_type.value:11s} {mag:+9.3g} {unit:6s} {state}")
+    for first, last, n in first_and_final(events):
+        kind = first.channel.kind
+        again = f", raised {n} times" if n > 1 else ""
+        out.append(
+            f"{channel_label(first.channel):12s} {first.kind.value:16s} "
+            f"first raise t={first.t_us / 1e6:7.2f}s {type_text(first):18s} "
+            f"{magnitude_text(kind, first.magnitude):12s} | final (t={last.t_us / 1e6:7.2f}s): "
+            f"{final_state(last):7s} {type_text(last):18s} "
+            f"{magnitude_text(kind, last.magnitude)}{again}")
     return out

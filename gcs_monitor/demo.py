@@ -13,9 +13,16 @@ import time
 from pathlib import Path
 from typing import Any
 
-from gcs_monitor.console import format_event
+from gcs_monitor.console import (
+    channel_label,
+    final_state,
+    first_and_final,
+    format_event,
+    magnitude_text,
+    type_text,
+)
 from gcs_monitor.core.types import ChannelId
-from gcs_monitor.fdi.events import AlarmEvent, AlarmKind, AlarmState
+from gcs_monitor.fdi.events import AlarmEvent, AlarmKind
 
 _SENSOR = re.compile(r"^(aoa|cas)(\d)$")
 _IMU = re.compile(r"^imu(\d)\.(acc|gyro)\.([xyzpqr])$")
@@ -32,32 +39,44 @@ def truth_channel(sim_channel: str) -> ChannelId | None:
     return None
 
 
+SUMMARY_HEADER = ["channel", "injected fault", "t_start [s]", "result", "delay [s]",
+                  "first raise (type, magnitude)", "final state (t, type, magnitude)"]
+
+
+def _raise_cells(first: AlarmEvent, last: AlarmEvent) -> list[str]:
+    kind = first.channel.kind
+    return [f"{type_text(first)} {magnitude_text(kind, first.magnitude)}",
+            f"{final_state(last)}, last event {last.t_us / 1e6:.2f} s: {type_text(last)} "
+            f"{magnitude_text(kind, last.magnitude)}"]
+
+
 def summary_rows(events: list[AlarmEvent], faults: list[dict[str, Any]]) -> list[list[str]]:
-    """One row per injected fault (detected?, delay) and per alarm on a healthy channel."""
-    raised: dict[ChannelId, AlarmEvent] = {}
-    for ev in events:
-        if ev.state is AlarmState.RAISED and ev.kind is AlarmKind.SENSOR_FAULT \
-                and ev.channel not in raised:
-            raised[ev.channel] = ev
+    """One row per injected fault (detected?, delay, first raise, final state), per alarm on a
+    healthy channel and per lost set (columns: :data:`SUMMARY_HEADER`). No NaN: a value that
+    does not exist is ``-``."""
+    raised = {first.channel: (first, last) for first, last, _ in first_and_final(events)
+              if first.kind in (AlarmKind.SENSOR_FAULT, AlarmKind.SET_LOST)}
     rows = []
     faulty = set()
     for f in faults:
         ch = truth_channel(str(f["channel"]))
         t0 = float(f["t_start_s"])
         if ch is None:
-            rows.append([str(f["channel"]), str(f["kind"]), f"{t0:.1f}", "not monitored", "", ""])
+            rows.append([str(f["channel"]), str(f["kind"]), f"{t0:.1f}", "not monitored", "-",
+                         "-", "-"])
             continue
         faulty.add(ch)
         hit = raised.get(ch)
         if hit is None:
-            rows.append([str(ch), str(f["kind"]), f"{t0:.1f}", "MISSED", "", ""])
+            rows.append([channel_label(ch), str(f["kind"]), f"{t0:.1f}", "MISSED", "-", "-", "-"])
         else:
-            rows.append([str(ch), str(f["kind"]), f"{t0:.1f}", "detected",
-                         f"{hit.t_us / 1e6 - t0:.2f}", hit.fault_type.value])
-    for ch, ev in sorted(raised.items(), key=lambda kv: kv[1].t_us):
+            rows.append([channel_label(ch), str(f["kind"]), f"{t0:.1f}", "detected",
+                         f"{hit[0].t_us / 1e6 - t0:.2f}", *_raise_cells(*hit)])
+    for ch, (first, last) in raised.items():
         if ch not in faulty:
-            rows.append([str(ch), "(none)", "", "FALSE ALARM", f"t={ev.t_us / 1e6:.2f}",
-                         ev.fault_type.value])
+            result = "set lost" if first.kind is AlarmKind.SET_LOST else "FALSE ALARM"
+            rows.append([channel_label(ch), "(none)", "-", result, f"t={first.t_us / 1e6:.2f}",
+                         *_raise_cells(first, last)])
     return rows
 
 
@@ -109,8 +128,7 @@ def run_demo(out: Path, *, preset: str = "demo_airdata_faults") -> int:
     print("[3/3] alarms against the scenario's faults")
     for ev in mon.events:
         print("      " + format_event(ev))
-    header = ["channel", "injected fault", "t_start [s]", "result", "delay [s]", "classified"]
-    table = markdown_table(header, summary_rows(mon.events, res.fault_events))
+    table = markdown_table(SUMMARY_HEADER, summary_rows(mon.events, res.fault_events))
     print()
     print(table)
     summary = out / "summary.md"

@@ -153,7 +153,8 @@ class Monitor:
 
     def _link_stats(self, v: VehicleState) -> dict[str, float]:
         st = v.assembler.stats
-        return {"loss_pct": st.loss_pct, "crc_errors": float(self.decoder.counters.parse_errors),
+        return {"lost": float(st.lost), "messages": float(st.messages),
+                "crc_errors": float(self.decoder.counters.parse_errors),
                 "boot_count": float(st.reboots), "duplicate_sysid": float(st.duplicate_sysid)}
 
     def finish(self) -> list[AlarmEvent]:

@@ -94,8 +94,8 @@ class VehiclePipeline:
             "frames": self.frames,
             "active_alarms": [
                 {"channel": str(ch), "estimator": est, "kind": ev.kind.value,
-                 "fault_type": ev.fault_type.value, "magnitude": ev.magnitude,
-                 "since_t_us": ev.t_us}
+                 "fault_type": ev.fault_type.value, "confidence": ev.confidence,
+                 "magnitude": ev.magnitude, "since_t_us": ev.t_us}
                 for (ch, est), ev in sorted(self.active.items(), key=lambda kv: kv[0])
             ],
         }

@@ -30,6 +30,141 @@ class _Sink:
         self.buf += data
 
 
+class Packer:
+    """Packs MAVLink 2 messages as one sender (sysid, compid), sequence numbers counted.
+
+    The one place the converters and log readers turn message objects into bytes.
+    """
+
+    def __init__(self, *, sysid: int = 1, compid: int = 1) -> None:
+        self._mav = mavlink.MAVLink(_Sink(), srcSystem=sysid, srcComponent=compid)
+        self._mav.robust_parsing = True
+        self.count: dict[str, int] = {}
+
+    def pack(self, msg: mavlink.MAVLink_message) -> bytes:
+        packet = bytes(msg.pack(self._mav))
+        self._mav.seq = (self._mav.seq + 1) % 256
+        name = msg.get_type()
+        self.count[name] = self.count.get(name, 0) + 1
+        return packet
+
+
+# -- contract messages from SI values (the inverse of telemetry/contract.py) ---------------------
+# Every function takes SI / NED / FRD values and returns one message in contract units; the
+# log readers (dataflash.py, ulog.py) convert their log's units to SI and call these.
+
+def _i16(x: float) -> int:
+    return max(-32768, min(32767, int(round(x))))
+
+
+def _u16(x: float) -> int:
+    return max(0, min(65535, int(round(x))))
+
+
+def heartbeat_msg(*, mav_type: int, autopilot: int, armed: bool = False) -> mavlink.MAVLink_message:
+    base = mavlink.MAV_MODE_FLAG_SAFETY_ARMED if armed else 0
+    return mavlink.MAVLink_heartbeat_message(mav_type, autopilot, base, 0,
+                                             mavlink.MAV_STATE_ACTIVE, 3)
+
+
+def highres_imu_msg(t_us: int, instance: int, acc_frd_mps2: tuple[float, float, float],
+                    omega_frd_radps: tuple[float, float, float], *,
+                    abs_pressure_pa: float = 0.0, temperature_k: float = 273.15,
+                    ) -> mavlink.MAVLink_message:
+    ax, ay, az = acc_frd_mps2
+    p, q, r = omega_frd_radps
+    return mavlink.MAVLink_highres_imu_message(
+        t_us, ax, ay, az, p, q, r, 0.0, 0.0, 0.0, abs_pressure_pa / 100.0, 0.0, 0.0,
+        temperature_k - 273.15, 0b111111, instance)
+
+
+def attitude_msg(t_us: int, euler_rad: tuple[float, float, float],
+                 omega_frd_radps: tuple[float, float, float] = (0.0, 0.0, 0.0),
+                 ) -> mavlink.MAVLink_message:
+    phi, theta, psi = euler_rad
+    p, q, r = omega_frd_radps
+    return mavlink.MAVLink_attitude_message(t_us // 1000, phi, theta, psi, p, q, r)
+
+
+def global_position_msg(t_us: int, lat_rad: float, lon_rad: float, alt_msl_m: float,
+                        alt_rel_m: float, vel_ned_mps: tuple[float, float, float],
+                        ) -> mavlink.MAVLink_message:
+    vn, ve, vd = vel_ned_mps
+    hdg = int(round((math.degrees(math.atan2(ve, vn)) % 360.0) * 100)) % 36000
+    return mavlink.MAVLink_global_position_int_message(
+        t_us // 1000, int(round(lat_rad * RAD2DEGE7)), int(round(lon_rad * RAD2DEGE7)),
+        int(round(alt_msl_m * 1000)), int(round(alt_rel_m * 1000)), _cms(vn), _cms(ve),
+        _cms(vd), hdg)
+
+
+def gps_raw_msg(t_us: int, fix_type: int, lat_rad: float, lon_rad: float, alt_msl_m: float,
+                vel_ned_mps: tuple[float, float, float], satellites: int = 255,
+                ) -> mavlink.MAVLink_message:
+    vn, ve, _ = vel_ned_mps
+    cog = int(round((math.degrees(math.atan2(ve, vn)) % 360.0) * 100)) % 36000
+    return mavlink.MAVLink_gps_raw_int_message(
+        t_us, fix_type, int(round(lat_rad * RAD2DEGE7)), int(round(lon_rad * RAD2DEGE7)),
+        int(round(alt_msl_m * 1000)), 65535, 65535, _u16(math.hypot(vn, ve) / CM2M), cog,
+        min(255, max(0, satellites)))
+
+
+def airspeed_msg(instance: int, cas_mps: float, *, oat_k: float = math.nan,
+                 impact_pressure_pa: float = math.nan) -> mavlink.MAVLink_message:
+    temp = _i16((oat_k - 273.15) * 100) if math.isfinite(oat_k) else 0
+    raw = impact_pressure_pa / 100.0 if math.isfinite(impact_pressure_pa) else 0.0
+    return mavlink.MAVLink_airspeed_message(instance, cas_mps, temp, raw, 0)
+
+
+def aoa_ssa_msg(t_us: int, aoa_rad: float, ssa_rad: float) -> mavlink.MAVLink_message:
+    return mavlink.MAVLink_aoa_ssa_message(t_us, aoa_rad * RAD2DEG, ssa_rad * RAD2DEG)
+
+
+def vfr_hud_msg(*, cas_mps: float, groundspeed_mps: float, heading_rad: float,
+                baro_alt_m: float, climb_mps: float, throttle: float = 0.0,
+                ) -> mavlink.MAVLink_message:
+    return mavlink.MAVLink_vfr_hud_message(
+        cas_mps, groundspeed_mps, int(round(math.degrees(heading_rad) % 360.0)) % 360,
+        _u16(throttle * 100), baro_alt_m, climb_mps)
+
+
+def scaled_pressure_msg(t_us: int, static_pressure_pa: float, oat_k: float,
+                        ) -> mavlink.MAVLink_message:
+    return mavlink.MAVLink_scaled_pressure_message(
+        t_us // 1000, static_pressure_pa / 100.0, 0.0, _i16((oat_k - 273.15) * 100))
+
+
+def servo_output_msg(t_us: int, pwm_us: list[float], *, port: int = 0,
+                     ) -> mavlink.MAVLink_message:
+    """SERVO_OUTPUT_RAW: up to 16 outputs in PWM µs (0 where absent)."""
+    v = [_u16(x) if math.isfinite(x) else 0 for x in pwm_us[:16]]
+    v += [0] * (16 - len(v))
+    return mavlink.MAVLink_servo_output_raw_message(t_us & 0xFFFFFFFF, port, *v)
+
+
+def nav_controller_msg(*, nav_roll_rad: float, nav_pitch_rad: float, nav_bearing_rad: float = 0.0,
+                       target_bearing_rad: float = 0.0, wp_dist_m: float = 0.0,
+                       alt_error_m: float = 0.0, aspd_error_mps: float = 0.0,
+                       xtrack_error_m: float = 0.0) -> mavlink.MAVLink_message:
+    """NAV_CONTROLLER_OUTPUT (deg, deg, cdeg-free integer degrees, m, m, m/s, m)."""
+
+    def f(x: float) -> float:
+        return x if math.isfinite(x) else 0.0
+
+    return mavlink.MAVLink_nav_controller_output_message(
+        f(nav_roll_rad) * RAD2DEG, f(nav_pitch_rad) * RAD2DEG,
+        _i16(f(nav_bearing_rad) * RAD2DEG), _i16(f(target_bearing_rad) * RAD2DEG),
+        _u16(f(wp_dist_m)), f(alt_error_m), f(aspd_error_mps), f(xtrack_error_m))
+
+
+def attitude_target_msg(t_us: int, q_ned_frd: tuple[float, float, float, float], *,
+                        thrust: float = 0.0) -> mavlink.MAVLink_message:
+    """ATTITUDE_TARGET: attitude setpoint quaternion (scalar first), body rates ignored."""
+    ignore_rates = 0b0000_0111
+    return mavlink.MAVLink_attitude_target_message(
+        t_us // 1000, ignore_rates, list(q_ned_frd), 0.0, 0.0, 0.0,
+        thrust if math.isfinite(thrust) else 0.0)
+
+
 class TlogEncoder:
     """Writes contract messages as a .tlog (8-byte big-endian µs timestamp + packet).
 

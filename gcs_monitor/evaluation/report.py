@@ -23,6 +23,13 @@ from typing import Any
 import numpy as np
 
 from gcs_monitor.core.units import DEG2RAD, KT2MPS
+from gcs_monitor.evaluation.configs import (
+    airdata_of,
+    detect_n,
+    imu_of,
+    sim_air_period_s,
+    window_n,
+)
 from gcs_monitor.evaluation.records import (
     AXES,
     METHOD_MONITOR,
@@ -125,9 +132,10 @@ def _disp(group: str, si: float) -> float:
 
 
 def monitor_label(res: CampaignResult) -> str:
-    e = res.config.estimators
-    ref = f"MHE reference ({e.airdata})" if e.airdata != "none" else "consensus only"
-    imu = [n for n, on in (("imu_ts", e.imu_ts), ("imu_hosm", e.imu_hosm)) if on]
+    air, fam = airdata_of(res.config), imu_of(res.config)
+    ref = f"MHE reference ({air.estimator})" if air.estimator != "none" else "consensus only"
+    imu = [n for n, on in (("imu_ts", fam.ts.enabled), ("imu_hosm", fam.hosm.enabled))
+           if on and fam.enabled]
     return f"monitor, {ref}" + (f", IMU: {'+'.join(imu)}" if imu else "")
 
 
@@ -206,8 +214,9 @@ def output_markdown(runs: Sequence[RunRecord]) -> str:
 
 def calibration_markdown(res: CampaignResult) -> str:
     """Fault-free residual statistics against the thresholds in use."""
-    th = {"aoa": res.config.fdi.aoa.threshold, "cas": res.config.fdi.cas.threshold,
-          "acc": res.config.fdi.acc.threshold, "gyro": res.config.fdi.gyro.threshold}
+    air, imu = airdata_of(res.config).fdi, imu_of(res.config).ts.fdi
+    th = {"aoa": air.aoa.threshold, "cas": air.cas.threshold, "acc": imu.acc.threshold,
+          "gyro": imu.gyro.threshold}
     free = [r for r in res.runs if not r.faulty]
     if not free:
         return "No fault-free run in this campaign."
@@ -325,7 +334,7 @@ def _campaign_plots(res: CampaignResult) -> list[Path]:
         fig, axs = plt.subplots(2, 2, figsize=(11, 6), sharex=True)
         for col, g in enumerate(("aoa", "cas")):
             u, scale = UNITS[g]
-            th = res.config.fdi.aoa.threshold if g == "aoa" else res.config.fdi.cas.threshold
+            th = getattr(airdata_of(res.config).fdi, g).threshold
             ax = axs[0, col]
             for i in range(s[f"{g}.measured"].shape[1]):
                 ax.plot(t, s[f"{g}.measured"][:, i] / scale, lw=0.7, label=f"{g}{i}")
@@ -356,6 +365,9 @@ def write_report(res: CampaignResult, *, jobs: int = 1) -> tuple[str, list[Path]
     """Write every file of the campaign; return the Markdown and the files written."""
     files = _write_campaign_csvs(res) + _campaign_plots(res)
     c = res.config
+    air, imu = airdata_of(c), imu_of(c)
+    # the campaigns fly the simulator: its air-data period turns the windows into samples
+    n_eval, n_d = (f(air.fdi.aoa, sim_air_period_s()) for f in (window_n, detect_n))
     n_free = sum(1 for r in res.runs if not r.faulty)
     run_s = [r.wall_s for r in res.runs]
     veh_s = sum(r.duration_s for r in res.runs)
@@ -364,12 +376,12 @@ def write_report(res: CampaignResult, *, jobs: int = 1) -> tuple[str, list[Path]
         "",
         f"- command: `gcs-monitor evaluate --preset-set {res.preset_set} --runs {res.n_runs} "
         f"--jobs {jobs} --seed {res.seed} --out {res.out_dir}`"
-        + ("" if c.estimators.airdata == "cmhe" and c.estimators.imu_ts else
+        + ("" if air.estimator == "cmhe" and imu.enabled and imu.ts.enabled else
            " (with the configuration below)"),
-        f"- monitor: {monitor_label(res)}; J_th aoa {c.fdi.aoa.threshold / DEG2RAD:.3g} deg, "
-        f"cas {c.fdi.cas.threshold / KT2MPS:.3g} kt, n_D/N_eval {c.fdi.aoa.n_detect}/"
-        f"{c.fdi.aoa.n_eval}; baselines use the same J_th on |y_i - median| (median vote: "
-        f"{c.fdi.aoa.n_detect} consecutive samples, latched; fixed threshold: 1 sample)",
+        f"- monitor: {monitor_label(res)}; J_th aoa {air.fdi.aoa.threshold / DEG2RAD:.3g} deg, "
+        f"cas {air.fdi.cas.threshold / KT2MPS:.3g} kt, n_D/N_eval {n_d}/{n_eval}; baselines "
+        f"use the same J_th on |y_i - median| (median vote: {n_d} consecutive samples, "
+        f"latched; fixed threshold: 1 sample)",
         f"- runs: {len(res.runs)} ({n_free} fault-free, {len(res.runs) - n_free} faulty), "
         f"{veh_s:.0f} s of flight; wall {res.wall_s:.0f} s with {jobs} job(s) "
         f"(mean {float(np.mean(run_s)) if run_s else math.nan:.1f} s per run)",

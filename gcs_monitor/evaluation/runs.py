@@ -19,15 +19,23 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from gcs_monitor.config import MonitorConfig, scheduled_threshold
-from gcs_monitor.estimators.imu_ts import FAULT_CHANNELS
-from gcs_monitor.evaluation.configs import EstimatorFactory, imu_config, with_declared_weather
+from gcs_monitor.config import MonitorConfig
+from gcs_monitor.evaluation.configs import (
+    AirDataVariant,
+    ImuVariants,
+    airdata_of,
+    detect_n,
+    families_for,
+    imu_config,
+    sim_air_period_s,
+    with_declared_weather,
+)
 from gcs_monitor.evaluation.records import (
     AIR_SETS,
     METHOD_FIXED,
@@ -37,8 +45,11 @@ from gcs_monitor.evaluation.records import (
     RunRecord,
 )
 from gcs_monitor.evaluation.scoring import imu_fault_truth, imu_fault_windows, score_air_run
+from gcs_monitor.families.imu.imu_ts import FAULT_CHANNELS
 from gcs_monitor.fdi.baselines import MedianVoteMonitor, MedianVoteParams, fixed_threshold_monitor
+from gcs_monitor.fdi.config import scheduled_threshold
 from gcs_monitor.fdi.events import AlarmEvent, AlarmKind
+from gcs_monitor.fdi.records import StepOutput
 from gcs_monitor.link.transports import TlogSource
 from gcs_monitor.monitor import Monitor
 from sim_vehicle.run import RunState, iter_run
@@ -72,14 +83,17 @@ def tlog_chunks(path: Path) -> list[bytes]:
 
 class AirCapture:
     """``Monitor.on_step`` callback: per air-data sample, feeds the baselines and keeps what the
-    scores need."""
+    scores need. The baselines get the monitor's J_th and, as the median vote's persistence,
+    its n_D in samples of the air-data stream (period ``air_period_s``)."""
 
-    def __init__(self, cfg: MonitorConfig) -> None:
+    def __init__(self, cfg: MonitorConfig, air_period_s: float) -> None:
         self.stale_s = cfg.telemetry.stale_after_s
-        sigma = cfg.airdata.turbulence_sigma_mps  # the baselines get the monitor's J_th
-        th = {"aoa": scheduled_threshold(cfg.fdi.aoa, sigma),
-              "cas": scheduled_threshold(cfg.fdi.cas, sigma)}
-        persistence = {"aoa": cfg.fdi.aoa.n_detect, "cas": cfg.fdi.cas.n_detect}
+        air = airdata_of(cfg)
+        sigma = air.weather.turbulence_sigma_mps
+        th = {"aoa": scheduled_threshold(air.fdi.aoa, sigma),
+              "cas": scheduled_threshold(air.fdi.cas, sigma)}
+        persistence = {"aoa": detect_n(air.fdi.aoa, air_period_s),
+                       "cas": detect_n(air.fdi.cas, air_period_s)}
         self.baselines: dict[str, dict[str, MedianVoteMonitor]] = {
             METHOD_MEDIAN: {s: MedianVoteMonitor(s, 3, MedianVoteParams(
                 threshold=th[s], persistence_n=persistence[s]), estimator=METHOD_MEDIAN)
@@ -95,7 +109,7 @@ class AirCapture:
     def _put(self, key: str, values: Sequence[float]) -> None:
         self.rows.setdefault(key, []).append(list(values))
 
-    def __call__(self, sysid: int, frame: Any, step: Any) -> None:
+    def __call__(self, sysid: int, frame: Any, step: StepOutput) -> None:
         for cs in step.channels:
             k = cs.channel.kind
             if cs.rms > self.j_max.get(k, -1.0):
@@ -138,13 +152,13 @@ def run_one(index: int, sc: Scenario, cfg: MonitorConfig, *, keep_series: bool =
     """Simulate one scenario, monitor its MAVLink bytes, score the run against its truth.
 
     With ``declare_weather`` the monitor receives the scenario's declared weather
-    (:func:`~gcs_monitor.evaluation.configs.declared_weather`) as its ``[airdata]`` envelope,
-    as a flight receives its forecast; otherwise ``cfg.airdata`` is used as given.
+    (:func:`~gcs_monitor.evaluation.configs.declared_weather`) as its ``[airdata.weather]``,
+    as a flight receives its forecast; otherwise ``cfg``'s weather is used as given.
     """
     t0 = time.perf_counter()
     if declare_weather:
         cfg = with_declared_weather(cfg, sc)
-    cap = AirCapture(cfg)
+    cap = AirCapture(cfg, sim_air_period_s(sc))
     mon = Monitor(cfg, on_step=cap)
     rs = RunState()
     feed_packets(mon, (pkt for _, _, pkt in iter_run(sc, record_truth=True, run_state=rs)))
@@ -156,14 +170,15 @@ def run_one(index: int, sc: Scenario, cfg: MonitorConfig, *, keep_series: bool =
     return rec
 
 
-def replay_tlog(path: Path, cfg: MonitorConfig, make_airdata: Callable[[], Any]
+def replay_tlog(path: Path, cfg: MonitorConfig, make_airdata: AirDataVariant
                 ) -> tuple[list[AlarmEvent], dict[str, np.ndarray]]:
-    """Monitor a tlog with one air-data estimator (as ``gcs-monitor replay``); the alarm events
-    and per air-data sample: ``t`` (s), ``aoa_j``/``cas_j`` (J per instance) and
-    ``aoa_est``/``cas_est`` (the estimator's virtual sensor), SI."""
+    """Monitor a tlog (as ``gcs-monitor replay``) with ``cfg``'s families, the air-data family
+    running the estimator ``make_airdata()``; the alarm events and per air-data sample: ``t``
+    (s), ``aoa_j``/``cas_j`` (J per instance) and ``aoa_est``/``cas_est`` (the estimator's
+    virtual sensor), SI."""
     rows: dict[str, list[Any]] = {k: [] for k in ("t", "aoa_j", "cas_j", "aoa_est", "cas_est")}
 
-    def on_step(sysid: int, frame: Any, step: Any) -> None:
+    def on_step(sysid: int, frame: Any, step: StepOutput) -> None:
         if not step.sets:
             return
         rows["t"].append(frame.t_us * 1e-6)
@@ -175,7 +190,7 @@ def replay_tlog(path: Path, cfg: MonitorConfig, make_airdata: Callable[[], Any]
         rows["cas_est"].append(next((x for c, x in v.items() if c.kind == "cas_virtual"),
                                     math.nan))
 
-    mon = Monitor(cfg, estimators_for=lambda s: ([], make_airdata()), on_step=on_step)
+    mon = Monitor(cfg, families_for=families_for(cfg, airdata=make_airdata), on_step=on_step)
     for data in tlog_chunks(path):
         mon.feed(data)
     mon.finish()
@@ -194,7 +209,7 @@ class ImuCapture:
         self.t_us: list[int] = []
         self.rows: dict[str, list[list[float]]] = {}
 
-    def __call__(self, sysid: int, frame: Any, step: Any) -> None:
+    def __call__(self, sysid: int, frame: Any, step: StepOutput) -> None:
         k = len(self.t_us)
         self.t_us.append(frame.t_us)
         for e in step.estimates:
@@ -216,19 +231,20 @@ class ImuCapture:
         return np.asarray(self.t_us, dtype=np.int64) * 1e-6, out
 
 
-def replay_packets(packets: Iterable[bytes], estimators: EstimatorFactory,
-                   cfg: MonitorConfig | None = None, *,
+def replay_packets(packets: Iterable[bytes], cfg: MonitorConfig | None = None,
+                   variants: ImuVariants | None = None, *,
                    notices: list[AlarmEvent] | None = None
                    ) -> tuple[np.ndarray, dict[str, np.ndarray], list[AlarmEvent]]:
     """Feed MAVLink packets through a Monitor; return Frame times, f_hat per estimator, alarms.
 
-    ``estimators`` builds the IMU estimators; ``cfg`` defaults to
-    :func:`~gcs_monitor.evaluation.configs.imu_config` (air-data estimation off). ``notices``:
-    if given, the ESTIMATOR events (re-initialisation notices, never alarms) are appended to it.
+    ``cfg`` defaults to :func:`~gcs_monitor.evaluation.configs.imu_config` (air-data estimation
+    off, the IMU family's defaults); ``variants``, if given, replaces the IMU family's
+    estimators (:func:`~gcs_monitor.evaluation.configs.lu2016_variants`, ...). ``notices``: if
+    given, the ESTIMATOR events (re-initialisation notices, never alarms) are appended to it.
     """
     cap = ImuCapture()
-    mon = Monitor(cfg or imu_config(), estimators_for=lambda sysid: (estimators(), None),
-                  on_step=cap)
+    cfg = cfg or imu_config()
+    mon = Monitor(cfg, families_for=families_for(cfg, imu=variants), on_step=cap)
     feed_packets(mon, packets)
     t_s, f_hat = cap.arrays()
     events = [e for e in mon.events if e.kind == AlarmKind.SENSOR_FAULT
@@ -238,13 +254,14 @@ def replay_packets(packets: Iterable[bytes], estimators: EstimatorFactory,
     return t_s, f_hat, events
 
 
-def simulate_imu(sc: Scenario, estimators: EstimatorFactory,
-                 cfg: MonitorConfig | None = None) -> ImuRun:
-    """Run a scenario through the simulator, the MAVLink bytes and the Monitor."""
+def simulate_imu(sc: Scenario, cfg: MonitorConfig | None = None,
+                 variants: ImuVariants | None = None) -> ImuRun:
+    """Run a scenario through the simulator, the MAVLink bytes and the Monitor (``cfg`` and
+    ``variants`` as :func:`replay_packets`)."""
     t0 = time.perf_counter()
     rs = RunState()
     packets = (pkt for _, _, pkt in iter_run(sc, run_state=rs))
-    t_s, f_hat, events = replay_packets(packets, estimators, cfg)
+    t_s, f_hat, events = replay_packets(packets, cfg, variants)
     assert rs.suite is not None
     return ImuRun(name=f"{sc.name}_s{sc.seed}", t_s=t_s, f_hat=f_hat,
                   f_true=imu_fault_truth(t_s, rs.suite.fault_log), events=events,

@@ -30,7 +30,7 @@ import numpy as np
 
 from gcs_monitor.config import MonitorConfig
 from gcs_monitor.core.types import ChannelId
-from gcs_monitor.estimators.imu_ts import FAULT_CHANNELS
+from gcs_monitor.evaluation.configs import airdata_of, imu_of, sim_air_period_s, window_n
 from gcs_monitor.evaluation.records import (
     AIR_SETS,
     IMU_GROUPS,
@@ -46,6 +46,7 @@ from gcs_monitor.evaluation.records import (
     ImuRun,
     RunRecord,
 )
+from gcs_monitor.families.imu.imu_ts import FAULT_CHANNELS
 from gcs_monitor.fdi.events import AlarmEvent, AlarmKind, AlarmState
 from gcs_monitor.fdi.metrics import MetricsRow, evaluate_run, metrics_table
 from gcs_monitor.fdi.monitor import calibrate
@@ -155,7 +156,8 @@ def score_air_run(index: int, sc: Scenario, cfg: MonitorConfig, events: Sequence
     """
     faults = air_fault_truth(sc)
     intervals = truth_intervals(faults)
-    imu_on = cfg.estimators.imu_ts or cfg.estimators.imu_hosm
+    imu = imu_of(cfg)
+    imu_on = imu.enabled and (imu.ts.enabled or imu.hosm.enabled)
     groups = AIR_SETS + (IMU_GROUPS if imu_on else ())
     outcomes = {METHOD_MONITOR: evaluate_run(events, intervals, groups=groups,
                                              grace_us=GRACE_US)}
@@ -195,7 +197,8 @@ def score_air_run(index: int, sc: Scenario, cfg: MonitorConfig, events: Sequence
     j_max = dict(j_seen)
     j_cal: dict[str, float] = {}
     faulted = {f.channel for f in faults}
-    n_eval = {"aoa": cfg.fdi.aoa.n_eval, "cas": cfg.fdi.cas.n_eval}
+    air, period_s = airdata_of(cfg), sim_air_period_s(sc)
+    n_eval = {"aoa": window_n(air.fdi.aoa, period_s), "cas": window_n(air.fdi.cas, period_s)}
     for s in AIR_SETS:
         if f"{s}.rms" not in a:
             continue

@@ -36,6 +36,10 @@ class FaultType(StrEnum):
     NO_DATA = "no_data"  # an instance of a redundant set stopped delivering valid values
 
 
+OBSERVED_TYPES = frozenset({FaultType.NO_DATA, FaultType.LINK})
+"""Fault types that are observations, not shape classifications (confidence 1)."""
+
+
 @dataclass(frozen=True, slots=True)
 class AlarmEvent:
     """One alarm transition (raised / updated / cleared) on one channel.
@@ -48,6 +52,9 @@ class AlarmEvent:
     residual_rms : residual RMS J at the transition (Wan2018 eq. 18), SI
     threshold : J_th used, SI
     estimator : which estimator's residual raised it (``"voting"`` for the set-level reference)
+    confidence : confidence in ``fault_type``, in [0, 1]: the classifier's margin for an
+        inferred type (bias, drift, ...; :mod:`gcs_monitor.fdi.classify`), 1 for an observed
+        one (link, no_data), 0 for unknown
     """
 
     t_us: int
@@ -61,6 +68,7 @@ class AlarmEvent:
     estimator: str
     message: str = ""
     vehicle: int = 1
+    confidence: float = 0.0
 
 
 @dataclass(frozen=True, slots=True)

@@ -12,7 +12,9 @@ accelerometer fault) with the same RMS / threshold / confirmation chain.
 
 Both are deterministic: no clocks, no I/O; time is the vehicle's ``t_us``.  Per-sample
 work uses Python floats and lists (faster than numpy for n = 3); classification (numpy)
-runs only when an alarm is raised and every ``reclassify_every_n`` samples while active.
+runs only when an alarm is raised and every ``reclassify_every_n`` samples while active. The
+fault type is decided at the raise and changed only on decisive evidence
+(:class:`~gcs_monitor.fdi.classify.LabelHysteresis`, one per channel).
 """
 
 from __future__ import annotations
@@ -28,7 +30,15 @@ import numpy as np
 from gcs_monitor.core.kernels import load_kernels
 from gcs_monitor.core.types import ChannelId
 from gcs_monitor.fdi.alarms import AlarmParams, AlarmStateMachine
-from gcs_monitor.fdi.classify import ClassifierParams, ClassifierShape, classify_residual
+from gcs_monitor.fdi.classify import (
+    Classification,
+    ClassifierParams,
+    ClassifierShape,
+    LabelHysteresis,
+    TypeFit,
+    classify_residual,
+    relabel_wins_n,
+)
 from gcs_monitor.fdi.confirmation import Confirmation, ConfirmationParams
 from gcs_monitor.fdi.events import (
     SET_INSTANCE,
@@ -228,17 +238,13 @@ class _History:
         return self.r[i:] + self.r[:i], self.m[i:] + self.m[:i]
 
 
-def _describe(hist: _History, cp: ClassifierParams, dt_s: float) -> tuple[FaultType, float, str]:
-    r, m = hist.ordered()
+def _classify(r: Sequence[float], cp: ClassifierParams, dt_s: float,
+              m: Sequence[float] | None = None) -> Classification:
+    """The window's classification (oldest first); unknown below four samples."""
     if len(r) < 4:
-        return FaultType.UNKNOWN, r[-1] if r else math.nan, ""
-    c = classify_residual(np.asarray(r), dt_s, cp, measured=np.asarray(m))
-    msg = f"{c.fault_type.value} {c.magnitude:.4g}"
-    if math.isfinite(c.frequency_hz):
-        msg += f" at {c.frequency_hz:.3g} Hz"
-    elif c.fault_type in (FaultType.DRIFT, FaultType.RUNAWAY):
-        msg += f" rate {c.rate_per_s:.4g}/s"
-    return c.fault_type, c.magnitude, msg
+        return Classification(FaultType.UNKNOWN, r[-1] if len(r) else math.nan)
+    return classify_residual(np.asarray(r), dt_s, cp,
+                             measured=None if m is None else np.asarray(m))
 
 
 class RedundantSetMonitor:
@@ -279,6 +285,9 @@ class RedundantSetMonitor:
         self._rms = [ResidualRms(params.rms) for _ in range(n)]
         self._conf = [Confirmation(params.confirmation) for _ in range(n)]
         self._hist = [_History(params.history_n) for _ in range(n)]
+        wins_n = relabel_wins_n(params.classifier.relabel_windows, params.history_n,
+                                params.reclassify_every_n)
+        self._label = [LabelHysteresis(self._cp, wins_n) for _ in range(n)]
         self._alarm = [
             AlarmStateMachine(ChannelId(name, i, axis), AlarmKind.SENSOR_FAULT, estimator,
                               params=params.alarm, vehicle=vehicle)
@@ -460,17 +469,29 @@ class RedundantSetMonitor:
                 self._since_class[i] += 1
                 if not sm.active or self._since_class[i] >= self.p.reclassify_every_n:
                     self._since_class[i] = 0
-                    ft, mag, msg = _describe(self._hist[i], self._cp, self.p.dt_s)
+                    r, m = self._hist[i].ordered()
+                    c = _classify(r, self._cp, self.p.dt_s, m)
+                    frozen = self._stuck[i] and J[i] <= th  # raised by the frozen-signal check
                     if self._no_data[i] and not self._usable[i]:
-                        ft, mag, msg = FaultType.NO_DATA, math.nan, (
-                            f"no valid value for {self._no_data_count[i]} samples while a peer "
-                            "delivers")
-                    elif self._stuck[i] and J[i] <= th:  # raised by the frozen-signal check
-                        ft, msg = FaultType.STUCK, (
-                            f"stuck: frozen for {self.p.stuck_n} samples while a peer varies,"
-                            f" residual {mag:.4g}")
-                    events += sm.step(t_us, True, fault_type=ft, magnitude=mag, rms=J[i],
-                                      threshold=th, message=msg)
+                        c = Classification(FaultType.NO_DATA, math.nan, confidence=1.0)
+                    elif frozen:  # an observation of the measurement: certain
+                        mag = c.fits[FaultType.STUCK].magnitude if c.fits else c.magnitude
+                        c = dataclasses.replace(
+                            c, fault_type=FaultType.STUCK, magnitude=mag, confidence=1.0,
+                            fits={**c.fits, FaultType.STUCK: TypeFit(math.nan, mag)})
+                    lab = (self._label[i].update(c) if sm.active
+                           else self._label[i].decide(c))
+                    if lab.fault_type is FaultType.NO_DATA:
+                        msg = (f"no valid value for {self._no_data_count[i]} samples while a "
+                               "peer delivers")
+                    elif lab.fault_type is FaultType.STUCK and frozen:
+                        msg = (f"stuck: frozen for {self.p.stuck_n} samples while a peer "
+                               f"varies, residual {lab.magnitude:.4g}")
+                    else:
+                        msg = lab.message()
+                    events += sm.step(t_us, True, fault_type=lab.fault_type,
+                                      magnitude=lab.magnitude, rms=J[i], threshold=th,
+                                      message=msg, confidence=lab.confidence)
             elif sm.active:
                 events += sm.step(t_us, False, rms=J[i], threshold=th)
         if all_faulty != self._set_alarm.active:
@@ -527,6 +548,8 @@ class ChannelMonitor:
         self._rms = ResidualRms(params.rms)
         self._conf = Confirmation(params.confirmation)
         self._hist = _History(params.history_n)
+        self._label = LabelHysteresis(self._cp, relabel_wins_n(
+            params.classifier.relabel_windows, params.history_n, params.reclassify_every_n))
         self._alarm = AlarmStateMachine(channel, kind, estimator, params=params.alarm,
                                         vehicle=vehicle)
         self._J = 0.0
@@ -569,13 +592,13 @@ class ChannelMonitor:
             if not was or self._since_class >= self.p.reclassify_every_n:
                 self._since_class = 0
                 r = self._hist.ordered()[0] if residuals is None else residuals()
-                if len(r) >= 4:
-                    c = classify_residual(np.asarray(r), self.p.dt_s, self._cp)
-                    ft, mag = c.fault_type, c.magnitude
-                else:
-                    ft, mag = FaultType.UNKNOWN, value
-                return self._alarm.step(t_us, True, fault_type=ft, magnitude=mag, rms=self._J,
-                                        threshold=th, message=f"{ft.value} {mag:.4g}")
+                c = _classify(r, self._cp, self.p.dt_s)
+                if len(r) < 4:
+                    c = dataclasses.replace(c, magnitude=value)
+                lab = self._label.update(c) if was else self._label.decide(c)
+                return self._alarm.step(t_us, True, fault_type=lab.fault_type,
+                                        magnitude=lab.magnitude, rms=self._J, threshold=th,
+                                        message=lab.message(), confidence=lab.confidence)
             return []
         if was:
             return self._alarm.step(t_us, False, rms=self._J, threshold=th)

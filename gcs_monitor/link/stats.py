@@ -23,6 +23,10 @@ MAX_TYPES = 400  # per-type tables stop growing here (unknown ids go to "OTHER")
 DUP_EWMA_N = 64
 DUP_THRESHOLD = 0.25
 DUP_SUSTAIN = 256
+# The flag describes the present: it clears when the evidence stops -- the EWMA below
+# DUP_THRESHOLD for DUP_SUSTAIN packets of that component, DUP_HEARTBEATS_CLEAR heartbeats of
+# the component that agree, DUP_SUSTAIN packets of the vehicle without a clock conflict.
+DUP_HEARTBEATS_CLEAR = 5
 RATE_WINDOW_S = 5.0  # recent per-type rates are measured over windows of this wall time
 MAV_TYPE_GCS = 6
 NON_VEHICLE_TYPES = frozenset({MAV_TYPE_GCS, 18, 26, 27, 30})  # GCS, ONBOARD_CONTROLLER, ...
@@ -31,13 +35,14 @@ NON_VEHICLE_TYPES = frozenset({MAV_TYPE_GCS, 18, 26, 27, 30})  # GCS, ONBOARD_CO
 class _SeqState:
     """Sequence tracking of one (sysid, compid) stream."""
 
-    __slots__ = ("last", "last_buf", "back_ewma", "high_run")
+    __slots__ = ("last", "last_buf", "back_ewma", "high_run", "low_run")
 
     def __init__(self, seq: int, buf: bytes) -> None:
         self.last = seq
         self.last_buf = buf
         self.back_ewma = 0.0
         self.high_run = 0
+        self.low_run = 0
 
 
 @dataclass
@@ -48,8 +53,10 @@ class LinkStats:
     g > 1 counts g - 1 lost packets; a repeat of the previous packet is a duplicate (dropped by
     the decoder); a backward step of less than 128 is a late (reordered) packet, which was
     counted lost when its successor arrived, so it is taken back off ``lost``. Two senders with
-    the same sysid (interleaved sequence streams, or a HEARTBEAT whose type/autopilot changes on
-    one (sysid, compid)) set ``duplicate_sysid``.
+    the same sysid (interleaved sequence streams, a HEARTBEAT whose type/autopilot changes on
+    one (sysid, compid), or two interleaving vehicle clocks seen by the assembler) set
+    ``duplicate_sysid``; it clears when that evidence stops (the second sender went away), and
+    ``duplicate_sysid_seen`` remembers that it happened.
 
     Attributes
     ----------
@@ -61,6 +68,11 @@ class LinkStats:
     reordered : packets that arrived after a later one
     bad_values : per ``MESSAGE.field``, values that were NaN/inf or physically impossible
     time_backwards : vehicle-time steps backwards that were not reboots (samples dropped)
+    time_rejected : time stamps no vehicle clock can carry (beyond 2100, negative, or a lone
+        jump ahead of the time line): the samples were dropped (also in ``bad_values`` under
+        ``MESSAGE.time_usec`` / ``MESSAGE.time_boot_ms``)
+    time_jumps : forward steps of the vehicle clock that the following samples confirmed (an
+        outage or a clock step): the time line moved on, nothing was dropped
     reboots : vehicle time restarted (autopilot reboot): the assembler was reset
     unknown_messages : well-framed packets whose id is not in the dialect
     signature_failures : MAVLink 2 packets that failed signing checks (where the sender is known)
@@ -74,12 +86,14 @@ class LinkStats:
     lost: int = 0
     duplicates: int = 0
     reordered: int = 0
-    duplicate_sysid: bool = False
+    duplicate_sysid_seen: bool = False
     heartbeat_conflicts: int = 0
     signature_failures: int = 0
     unknown_messages: int = 0
     bad_values: dict[str, int] = field(default_factory=dict)
     time_backwards: int = 0
+    time_rejected: int = 0
+    time_jumps: int = 0
     clock_conflicts: int = 0  # two vehicle clocks interleaving (assembler)
     duplicates_dropped: int = 0  # same-timestamp samples dropped by the assembler
     reboots: int = 0
@@ -94,6 +108,26 @@ class LinkStats:
     _win_counts: dict[str, int] = field(default_factory=dict, repr=False)
     _seq: dict[int, _SeqState] = field(default_factory=dict, repr=False)
     _heartbeat: dict[int, tuple[int, int]] = field(default_factory=dict, repr=False)
+    _dup_seq: set[int] = field(default_factory=set, repr=False)  # compids interleaving now
+    _dup_hb: dict[int, int] = field(default_factory=dict, repr=False)  # compid: agreeing left
+    _dup_clock_left: int = field(default=0, repr=False)  # packets until clock evidence expires
+
+    @property
+    def duplicate_sysid(self) -> bool:
+        """Two senders share this system id now (see the class docstring)."""
+        return bool(self._dup_seq or self._dup_hb or self._dup_clock_left)
+
+    @duplicate_sysid.setter
+    def duplicate_sysid(self, evidence: bool) -> None:
+        """``True``: evidence from outside the sequence and heartbeat checks (two vehicle clocks
+        interleaving, seen by the assembler); it lasts ``DUP_SUSTAIN`` packets."""
+        if evidence:
+            self._dup_clock_left = DUP_SUSTAIN
+            self.duplicate_sysid_seen = True
+        else:
+            self._dup_seq.clear()
+            self._dup_hb.clear()
+            self._dup_clock_left = 0
 
     def on_packet(self, compid: int, seq: int, name: str, buf: builtins.bytes,
                   wall_s: float) -> bool:
@@ -126,10 +160,18 @@ class LinkStats:
             st.back_ewma += (back - st.back_ewma) / DUP_EWMA_N
             if st.back_ewma > DUP_THRESHOLD:
                 st.high_run += 1
+                st.low_run = 0
                 if st.high_run >= DUP_SUSTAIN:
-                    self.duplicate_sysid = True
+                    self._dup_seq.add(compid)
+                    self.duplicate_sysid_seen = True
             else:
                 st.high_run = 0
+                if compid in self._dup_seq:
+                    st.low_run += 1
+                    if st.low_run >= DUP_SUSTAIN:  # the other sender has stopped
+                        self._dup_seq.discard(compid)
+        if self._dup_clock_left:
+            self._dup_clock_left -= 1
         nbytes = len(buf)
         self.messages += 1
         self.bytes += nbytes
@@ -161,7 +203,14 @@ class LinkStats:
         prev = self._heartbeat.get(compid)
         if prev is not None and prev != (mav_type, autopilot):
             self.heartbeat_conflicts += 1
-            self.duplicate_sysid = True
+            self._dup_hb[compid] = DUP_HEARTBEATS_CLEAR
+            self.duplicate_sysid_seen = True
+        elif compid in self._dup_hb:
+            left = self._dup_hb[compid] - 1
+            if left > 0:
+                self._dup_hb[compid] = left
+            else:
+                del self._dup_hb[compid]
         self._heartbeat[compid] = (mav_type, autopilot)
         if compid == 1 or self.mav_type < 0:
             self.mav_type, self.autopilot = mav_type, autopilot
@@ -208,11 +257,13 @@ class LinkStats:
             "lost": self.lost, "loss_pct": self.loss_pct,
             "duplicates": self.duplicates, "reordered": self.reordered,
             "duplicate_sysid": self.duplicate_sysid,
+            "duplicate_sysid_seen": self.duplicate_sysid_seen,
             "heartbeat_conflicts": self.heartbeat_conflicts,
             "signature_failures": self.signature_failures,
             "unknown_messages": self.unknown_messages, "bad_values": dict(self.bad_values),
             "bad_values_total": sum(self.bad_values.values()),
             "time_backwards": self.time_backwards, "clock_conflicts": self.clock_conflicts,
+            "time_rejected": self.time_rejected, "time_jumps": self.time_jumps,
             "duplicates_dropped": self.duplicates_dropped,
             "reboots": self.reboots, "boot_count": self.reboots,
             "primary_imu_switches": self.primary_imu_switches,

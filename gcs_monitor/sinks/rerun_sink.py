@@ -192,7 +192,8 @@ def alarm_text(event: AlarmEvent) -> str:
     mag = "n/a" if math.isnan(event.magnitude) else f"{event.magnitude:+.4g} {unit}".rstrip()
     text = (
         f"{event.state.value.upper()} {event.kind.value} {event.channel} "
-        f"{event.fault_type.value} magnitude {mag}, J={event.residual_rms:.4g} "
+        f"{event.fault_type.value} magnitude {mag}, confidence {event.confidence:.2f}, "
+        f"J={event.residual_rms:.4g} "
         f"J_th={event.threshold:.4g} [{event.estimator}]"
     )
     return f"{text}: {event.message}" if event.message else text

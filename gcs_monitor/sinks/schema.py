@@ -4,8 +4,12 @@ Every payload is a plain dict with ``schema_version`` and ``type`` keys, produce
 nowhere else, so Zenoh consumers, the alarm journal and tests agree on one format.
 
 JSON has no NaN: non-finite floats are written as ``null`` and read back as NaN.
-Bump :data:`SCHEMA_VERSION` on any incompatible change (renamed or retyped key); adding a key is
-compatible and keeps the version.
+Bump :data:`SCHEMA_VERSION` on any incompatible change (renamed or retyped key, or a key whose
+meaning changed); adding a key alone is compatible and keeps the version.
+
+Version 2: an alarm's ``fault_type`` is the type decided at the raise and held by hysteresis
+(:class:`gcs_monitor.fdi.classify.LabelHysteresis`), no longer the latest window's guess, and
+``confidence`` says how sure it is. Version 1 payloads are still read (``confidence`` NaN).
 """
 
 from __future__ import annotations
@@ -22,7 +26,7 @@ from gcs_monitor.core.types import ChannelId
 from gcs_monitor.fdi.events import AlarmEvent, AlarmKind, AlarmState, FaultType
 from gcs_monitor.fdi.records import Estimate
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 
 US_PER_S = 1_000_000
 
@@ -94,6 +98,7 @@ def alarm_to_dict(event: AlarmEvent, *, wall_time_s: float) -> dict[str, Any]:
         "state": event.state.value,
         "kind": event.kind.value,
         "fault_type": event.fault_type.value,
+        "confidence": _num(event.confidence),
         "magnitude": _num(event.magnitude),
         "unit": channel_unit(event.channel),
         "residual_rms": _num(event.residual_rms),
@@ -128,6 +133,7 @@ def alarm_from_dict(d: Mapping[str, Any]) -> AlarmEvent:
         estimator=str(d["estimator"]),
         message=str(d.get("message", "")),
         vehicle=int(d["vehicle"]),
+        confidence=_unnum(d.get("confidence")),  # absent before schema version 2
     )
 
 

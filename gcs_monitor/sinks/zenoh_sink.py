@@ -337,11 +337,14 @@ def format_alarm(d: dict[str, Any]) -> str:
     rms_s = "n/a" if rms is None else f"{rms:.4g}"
     th_s = "n/a" if th is None else f"{th:.4g}"
     msg = f" {d['message']}" if d.get("message") else ""
+    conf = d.get("confidence")
+    conf_s = "" if conf is None else f" conf={conf:.2f}"
     t_s = d.get("vehicle_time_s", float("nan"))
     return (
         f"{d.get('wall_time', '?')} v{d.get('vehicle')} t={t_s:.3f}s "
         f"{str(d.get('state', '?')).upper():7s} {d.get('kind')} {d.get('channel_name')} "
-        f"{d.get('fault_type')} mag={mag_s} J={rms_s} J_th={th_s} [{d.get('estimator')}]{msg}"
+        f"{d.get('fault_type')} mag={mag_s}{conf_s} J={rms_s} J_th={th_s} "
+        f"[{d.get('estimator')}]{msg}"
     )
 
 

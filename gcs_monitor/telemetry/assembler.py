@@ -42,6 +42,26 @@ the first new frame has ``reset=True``. A backward sample followed by a forward 
 reordered packet (dropped, ``time_backwards``); two time lines that keep interleaving by more
 than ``REBOOT_JUMP_US`` are two senders with one sysid (``clock_conflicts``,
 ``duplicate_sysid``), which never reset the assembler.
+
+**Vehicle clock.** A time stamp no vehicle clock can carry is rejected and counted
+(``stats.time_rejected`` and ``bad_values["MESSAGE.time_usec"]``), never passed on:
+
+* beyond :data:`MAX_VEHICLE_T_US` (2100-01-01 as UNIX time: MAVLink's ``time_usec`` is time
+  since boot or UNIX time, so no real clock is later; 2^63 and above, which no int64 holds, are
+  far beyond it) or negative;
+* an IMU sample more than :meth:`FrameAssembler.jump_bound_us` ahead of the IMU time line (the
+  newest accepted IMU sample) and of the other streams is held, not used: if the samples that
+  follow continue that later time line (``REBOOT_CONFIRM`` of them, IMU samples or those of the
+  other streams), it is the vehicle's (a link outage, a clock step) and the held samples are
+  replayed (``stats.time_jumps``); a sample back on the old line first means they were
+  outliers, and they are dropped and counted. The bound is ``REBOOT_CONFIRM`` measured IMU
+  periods: an outlier less far ahead leaves fewer than ``REBOOT_CONFIRM`` samples behind it,
+  which the reboot check takes for reordered packets, so no single time stamp can fake a reboot.
+  An IMU that resumes on the time line the other streams have kept (it was silent) is taken at
+  once;
+* a sample of another timed stream (attitude, GPS, AoA, static pressure, surfaces) more than
+  that bound ahead of every stream's newest time stamp and of a held later line: the streams
+  share the autopilot clock and lead each other by at most their send schedule.
 """
 
 from __future__ import annotations
@@ -66,6 +86,7 @@ REBOOT_JUMP_US = 1_000_000  # attitude/GPS: a step back larger than this is a cl
 REBOOT_CONFIRM = 5  # primary-IMU samples in a row on a new, earlier time line = reboot
 CLOCK_CONFLICTS_DUPLICATE = 3  # old and new time lines interleaving this often: 2 senders
 REBOOT_CONFIRM_DUPLICATE = 100  # ... then only this long a run (1 s at 100 Hz) is a new clock
+MAX_VEHICLE_T_US = 4_102_444_800_000_000  # 2100-01-01T00:00Z as UNIX µs (module docstring)
 GPS_RING = 16  # GPS samples kept for interpolation (>= D / GPS period + 2)
 DEFAULT_GPS_DELAY_S = 0.1  # one GPS period at 10 Hz (docs/telemetry.md default GPS rate)
 DEFAULT_STALE_S = 0.5
@@ -177,6 +198,12 @@ class FrameAssembler:
                                                   float]] = collections.deque(
                                                       maxlen=REBOOT_CONFIRM)
         self._back_run = 0
+        # IMU samples held on a later time line (module docstring, "Vehicle clock")
+        self._jump_buf: list[tuple[str, int, int, float, float, float, float, float,
+                                   float]] = []
+        self._line_period = SamplePeriod()  # of the IMU time line (distinct accepted instants)
+        self._other_t = NEVER_US  # newest accepted time stamp of the other timed streams
+        self._jump_support = 0  # other-stream samples on the held later line
         self._last_frame_t = NEVER_US
         self._now_us = NEVER_US
         self._att: np.ndarray | None = None
@@ -257,7 +284,7 @@ class FrameAssembler:
         if not 0 <= inst < N_IMU:
             self.stats.bad_value("HIGHRES_IMU.id")
             return []
-        return self._imu_sample(m.time_usec, inst, ax, ay, az, p, q, r)
+        return self._imu_in("HIGHRES_IMU.time_usec", m.time_usec, inst, ax, ay, az, p, q, r)
 
     def _fallback_imu(self, m: Any, name: str, inst: int, t_us: int) -> list[Frame]:
         msg_id = m._header.msgId
@@ -276,7 +303,8 @@ class FrameAssembler:
                 and -W <= p <= W and -W <= q <= W and -W <= r <= W):
             return self._bad(name, ("xacc", "yacc", "zacc", "xgyro", "ygyro", "zgyro"),
                              (ax, ay, az, p, q, r), (-A,) * 3 + (-W,) * 3, (A,) * 3 + (W,) * 3)
-        return self._imu_sample(t_us, inst, ax, ay, az, p, q, r)
+        field = ".time_usec" if msg_id == _RAW_IMU else ".time_boot_ms"
+        return self._imu_in(name + field, t_us, inst, ax, ay, az, p, q, r)
 
     def _scaled_imu(self, m: Any) -> list[Frame]:
         if self._highres:
@@ -289,6 +317,87 @@ class FrameAssembler:
         if self._highres or self.autopilot != M.MAV_AUTOPILOT_ARDUPILOTMEGA:
             return []
         return self._fallback_imu(m, "RAW_IMU", 0, int(m.time_usec))
+
+    # vehicle clock ------------------------------------------------------------------------------
+    def jump_bound_us(self) -> int:
+        """How far ahead of the IMU time line an IMU sample may be before it is held:
+        ``REBOOT_CONFIRM`` measured line periods (``REBOOT_JUMP_US`` until measured)."""
+        if not self._line_period.known:
+            return REBOOT_JUMP_US
+        return int(REBOOT_CONFIRM * self._line_period.seconds() * US_PER_S)
+
+    def _time_rejected(self, key: str, n: int = 1) -> None:
+        self.stats.bad_value(key, n)
+        self.stats.time_rejected += n
+
+    def _bad_time(self, key: str, t_us: int) -> bool:
+        """Reject (True, counted) a time stamp no clock can carry, or a timed sample of another
+        stream too far ahead of the vehicle's time line (module docstring)."""
+        if not 0 <= t_us <= MAX_VEHICLE_T_US:
+            self._time_rejected(key)
+            return True
+        line = max(max(self._imu_t), self._other_t)
+        lim = self.jump_bound_us()
+        if line == NEVER_US or t_us - line <= lim:
+            if t_us > self._other_t:
+                self._other_t = t_us
+            return False
+        buf = self._jump_buf
+        if buf and abs(t_us - buf[-1][1]) <= lim:  # on the held later line: it confirms it
+            self._jump_support += 1
+            self._other_t = t_us
+            return False
+        self._time_rejected(key)
+        return True
+
+    def _imu_in(self, key: str, t_us: int, inst: int, ax: float, ay: float, az: float,
+                p: float, q: float, r: float) -> list[Frame]:
+        """Clock check of one IMU sample (module docstring, "Vehicle clock"), then
+        :meth:`_imu_sample`. ``key`` names the time field for the counters."""
+        if not 0 <= t_us <= MAX_VEHICLE_T_US:
+            self._time_rejected(key)
+            return []
+        line = max(self._imu_t)
+        buf = self._jump_buf
+        bound = self.jump_bound_us()
+        if line != NEVER_US and t_us - line > bound:
+            if not buf and self._other_t != NEVER_US and t_us - self._other_t <= bound:
+                # the other streams are on this time line already: the IMU was silent, not
+                # wrong (no interval is measured across its gap)
+                self._line_period.gap()
+                return self._accept_imu(t_us, inst, ax, ay, az, p, q, r)
+            if buf and abs(t_us - buf[-1][1]) > bound:
+                self._drop_held()  # not the held line either: those were outliers
+            buf.append((key, t_us, inst, ax, ay, az, p, q, r))
+            if len(buf) + self._jump_support < REBOOT_CONFIRM:
+                return []
+            # confirmed: the vehicle's clock is on the later line (an outage, a clock step)
+            self.stats.time_jumps += 1
+            self._line_period.gap()
+            held = list(buf)
+            buf.clear()
+            self._jump_support = 0
+            out: list[Frame] = []
+            for _, *sample in held:
+                out += self._accept_imu(*sample)  # type: ignore[arg-type]
+            return out
+        if buf:
+            self._drop_held()  # back on the current line: the held samples were outliers
+        return self._accept_imu(t_us, inst, ax, ay, az, p, q, r)
+
+    def _accept_imu(self, t_us: int, inst: int, ax: float, ay: float, az: float, p: float,
+                    q: float, r: float) -> list[Frame]:
+        newest = max(self._imu_t)
+        out = self._imu_sample(t_us, inst, ax, ay, az, p, q, r)
+        if t_us > newest and self._imu_t[inst] == t_us:  # a new instant of the time line
+            self._line_period.add(t_us)
+        return out
+
+    def _drop_held(self) -> None:
+        for key, *_ in self._jump_buf:
+            self._time_rejected(key)
+        self._jump_buf.clear()
+        self._jump_support = 0
 
     def _imu_sample(self, t_us: int, inst: int, ax: float, ay: float, az: float, p: float,
                     q: float, r: float) -> list[Frame]:
@@ -383,6 +492,8 @@ class FrameAssembler:
             return self._bad("ATTITUDE", ("roll", "pitch", "yaw"), (ph, th, ps), (-E,) * 3,
                              (E,) * 3)
         t_us = m.time_boot_ms * ct.MS_TO_US
+        if self._bad_time("ATTITUDE.time_boot_ms", t_us):
+            return []
         if t_us < self._att_t:
             if self._att_t - t_us <= REBOOT_JUMP_US:
                 self.stats.time_backwards += 1
@@ -409,6 +520,8 @@ class FrameAssembler:
 
     def _global_position(self, m: Any) -> list[Frame]:
         t_us = m.time_boot_ms * ct.MS_TO_US
+        if self._bad_time("GLOBAL_POSITION_INT.time_boot_ms", t_us):
+            return []
         s = ct.CMPS_TO_MPS
         vn, ve, vd = m.vx * s, m.vy * s, m.vz * s
         V = ct.MAX_SPEED_MPS
@@ -506,6 +619,8 @@ class FrameAssembler:
         a, b = m.AOA * k, m.SSA * k
         L = ct.MAX_AOA_RAD
         t_us = int(m.time_usec)
+        if self._bad_time("AOA_SSA.time_usec", t_us):
+            return []
         if -L <= b <= L:
             if self._ssa_t == NEVER_US:
                 self.seen.add("AOA_SSA")
@@ -528,7 +643,10 @@ class FrameAssembler:
         L = ct.MAX_AOA_RAD
         if not -L <= a <= L:
             return self._bad("NAMED_VALUE_FLOAT", (name,), (a,), (-L,), (L,))
-        self._set_aoa(1 if name == "AOA1" else 2, m.time_boot_ms * ct.MS_TO_US, a)
+        t_us = m.time_boot_ms * ct.MS_TO_US
+        if self._bad_time("NAMED_VALUE_FLOAT.time_boot_ms", t_us):
+            return []
+        self._set_aoa(1 if name == "AOA1" else 2, t_us, a)
         return []
 
     def _vfr_hud(self, m: Any) -> list[Frame]:
@@ -548,10 +666,13 @@ class FrameAssembler:
         if not ct.MIN_PRESSURE_PA <= p <= ct.MAX_PRESSURE_PA:
             return self._bad("SCALED_PRESSURE", ("press_abs",), (p,), (ct.MIN_PRESSURE_PA,),
                              (ct.MAX_PRESSURE_PA,))
+        t_us = m.time_boot_ms * ct.MS_TO_US
+        if self._bad_time("SCALED_PRESSURE.time_boot_ms", t_us):
+            return []
         if self._p_static_t == NEVER_US:
             self.seen.add("SCALED_PRESSURE")
         self._p_static = p
-        self._p_static_t = m.time_boot_ms * ct.MS_TO_US
+        self._p_static_t = t_us
         oat = m.temperature * ct.CDEGC_TO_K + ct.ZERO_C_K
         if ct.MIN_OAT_K <= oat <= ct.MAX_OAT_K:
             self._oat = oat
@@ -580,9 +701,12 @@ class FrameAssembler:
             lims = (S, S, R) * N_SURF
             return self._bad("DEBUG_FLOAT_ARRAY.SURF", names, tuple(d.tolist()),
                              tuple(-x for x in lims), lims)
+        t_us = int(m.time_usec)
+        if self._bad_time("DEBUG_FLOAT_ARRAY.time_usec", t_us):
+            return []
         self._surf = (cmd, pos, rod)
         self._ever_surf = True
-        self._surf_t = int(m.time_usec)
+        self._surf_t = t_us
         return []
 
     # -- output ------------------------------------------------------------------------------

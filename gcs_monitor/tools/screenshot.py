@@ -254,6 +254,23 @@ def _capture(
     return shot
 
 
+def screenshot_page(html: Path, png: Path, *, width_px: int = 1200,
+                    height_px: int = 2600, timeout_s: float = 120.0) -> Path:
+    """Screenshot a static, self-contained HTML page (a fault report) with headless chromium's
+    own ``--screenshot`` (enough for a page without scripts, unlike the Rerun viewer)."""
+    png = Path(png).resolve()
+    png.parent.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory() as profile:
+        cmd = [CHROMIUM, *CHROMIUM_FLAGS, f"--user-data-dir={profile}",
+               f"--window-size={width_px},{height_px}", f"--screenshot={png}",
+               Path(html).resolve().as_uri()]
+        subprocess.run(cmd, check=True, timeout=timeout_s, stdout=subprocess.DEVNULL,
+                       stderr=subprocess.DEVNULL)
+    if not png.exists():
+        raise RuntimeError(f"chromium wrote no screenshot of {html}")
+    return png
+
+
 def _settled_screenshot(dt: _DevTools) -> dict[str, Any]:
     """Capture until the picture stops changing (the viewer is still ingesting on a loaded box).
 

@@ -10,9 +10,10 @@ from gcs_monitor.fdi.events import SET_INSTANCE, AlarmEvent, AlarmKind, AlarmSta
 
 
 def _ev(t_s: float, ch: ChannelId, state: AlarmState, magnitude: float,
-        fault: FaultType = FaultType.BIAS) -> AlarmEvent:
-    return AlarmEvent(round(t_s * 1e6), ch, state, AlarmKind.SENSOR_FAULT, fault, magnitude,
-                      0.1, 0.05, "voting", "msg")
+        fault: FaultType = FaultType.BIAS, kind: AlarmKind = AlarmKind.SENSOR_FAULT,
+        confidence: float = 0.9) -> AlarmEvent:
+    return AlarmEvent(round(t_s * 1e6), ch, state, kind, fault, magnitude,
+                      0.1, 0.05, "voting", "msg", confidence=confidence)
 
 
 def test_display_units() -> None:
@@ -25,22 +26,42 @@ def test_display_units() -> None:
 
 def test_format_event_line() -> None:
     line = format_event(_ev(12.5, ChannelId("aoa", 2), AlarmState.RAISED, math.radians(2.0)))
-    assert line == ("t=   12.50s  RAISED   aoa2         sensor_fault   bias        +2 deg"
-                    "         (voting) msg")
+    assert line == ("t=   12.50s  RAISED   aoa2         sensor_fault   bias (0.90)        "
+                    "+2 deg         (voting) msg")
     line = format_event(_ev(1.0, ChannelId("acc", 0, "x"), AlarmState.CLEARED, math.nan))
     assert " acc0.x " in line and " CLEARED " in line and " -  " in line
     assert " aoa[set] " in format_event(_ev(1.0, ChannelId("aoa", SET_INSTANCE),
                                             AlarmState.RAISED, 0.0))
 
 
-def test_summary_first_raise_latest_state() -> None:
-    aoa, cas = ChannelId("aoa", 1), ChannelId("cas", 0)
+def test_summary_first_raise_and_final_state() -> None:
+    aoa, cas, aoa_set = ChannelId("aoa", 1), ChannelId("cas", 0), ChannelId("aoa", SET_INSTANCE)
     rows = summarise_alarms([
-        _ev(20.0, cas, AlarmState.RAISED, 1852 / 3600 * 3.0, FaultType.DRIFT),
         _ev(10.0, aoa, AlarmState.RAISED, math.radians(1.0)),
+        _ev(20.0, cas, AlarmState.RAISED, 1852 / 3600 * 3.0, FaultType.DRIFT),
+        _ev(25.0, aoa_set, AlarmState.RAISED, math.nan, FaultType.UNKNOWN, AlarmKind.SET_LOST,
+            0.0),
         _ev(30.0, aoa, AlarmState.CLEARED, math.radians(0.5)),
+        _ev(35.0, cas, AlarmState.UPDATED, 1852 / 3600 * 9.0, FaultType.RUNAWAY),
     ])
-    assert len(rows) == 2
-    assert rows[0].startswith("aoa1") and "raised t=  10.00s" in rows[0]
-    assert rows[0].endswith("cleared") and "+0.5 deg" in rows[0]
-    assert rows[1].startswith("cas0") and "drift" in rows[1] and rows[1].endswith("active")
+    assert len(rows) == 3
+    assert "nan" not in "".join(rows).lower()
+    first, final = rows[0].split(" | ")
+    assert first.startswith("aoa1 ") and "first raise t=  10.00s bias (0.90)" in first
+    assert "+1 deg" in first
+    assert final == "final (t=  30.00s): cleared bias (0.90)        +0.5 deg"
+    first, final = rows[1].split(" | ")
+    assert "drift (0.90)" in first and "+3 kt" in first
+    assert final.startswith("final (t=  35.00s): active  runaway (0.90)") and "+9 kt" in final
+    # a lost set: its own name, no magnitude
+    assert rows[2].startswith("aoa[set] ") and "aoa-1" not in rows[2]
+    first, final = rows[2].split(" | ")
+    assert first.rstrip().endswith("unknown            -") and final.rstrip().endswith("-")
+
+
+def test_summary_counts_raises_again() -> None:
+    aoa = ChannelId("aoa", 1)
+    rows = summarise_alarms([_ev(1.0, aoa, AlarmState.RAISED, 0.01),
+                             _ev(2.0, aoa, AlarmState.CLEARED, 0.01),
+                             _ev(3.0, aoa, AlarmState.RAISED, 0.02)])
+    assert rows[0].endswith("raised 2 times") and "first raise t=   1.00s" in rows[0]

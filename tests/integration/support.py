@@ -19,14 +19,20 @@ SENSOR_KINDS = frozenset({AlarmKind.SENSOR_FAULT, AlarmKind.ACTUATOR_FAULT, Alar
 
 
 @functools.cache
-def base_packets() -> list[tuple[int, bytes]]:
-    """A fault-free simulated flight as (t_us, packet), every contract message."""
+def clean_packets(duration_s: float) -> list[tuple[int, bytes]]:
+    """A fault-free simulated flight of ``duration_s`` as (t_us, packet), every contract
+    message (``BASE_PRESET`` with its faults removed)."""
     from sim_vehicle.run import iter_packets
     from sim_vehicle.scenario import load_scenario
 
     sc = load_scenario(BASE_PRESET)
-    sc = dataclasses.replace(sc, faults=(), duration_s=BASE_DURATION_S)
+    sc = dataclasses.replace(sc, faults=(), duration_s=duration_s)
     return list(iter_packets(sc))
+
+
+def base_packets() -> list[tuple[int, bytes]]:
+    """The fault-free base flight (``BASE_DURATION_S``)."""
+    return clean_packets(BASE_DURATION_S)
 
 
 @dataclass

@@ -2,10 +2,11 @@
 
 The first 40 s of the demo preset (aoa1 bias at 20 s, cas0 drift at 25 s, cas2 runaway at
 35 s) through MAVLink bytes and the default monitor. The committed copy
-(tests/data/golden/demo_40s.events.jsonl) was written by the code before the families
-restructuring (issue 14); a change of behaviour shows in review as a diff of that file. Exact on
-everything but the floats, which are compared to 1e-9 relative (their bits may differ between
-BLAS builds; on one machine they are identical). Refresh deliberately with
+(tests/data/golden/demo_40s.events.jsonl) was first written by the code before the families
+restructuring (issue 14) and regenerated for the label hysteresis (issue 15 item 7: stable
+fault types, with their confidence); a change of behaviour shows in review as a diff of that
+file. Exact on everything but the floats, which are compared to 1e-9 relative (their bits may
+differ between BLAS builds; on one machine they are identical). Refresh deliberately with
 ``GCS_UPDATE_GOLDEN=1 pytest tests/integration/test_golden_journal.py``.
 """
 
@@ -23,7 +24,7 @@ from gcs_monitor.monitor import Monitor
 
 GOLDEN = Path(__file__).resolve().parents[1] / "data" / "golden" / "demo_40s.events.jsonl"
 DURATION_S = 40.0
-FLOATS = ("magnitude", "residual_rms", "threshold")
+FLOATS = ("magnitude", "residual_rms", "threshold", "confidence")
 
 
 def _record(e: AlarmEvent) -> dict[str, Any]:
@@ -32,6 +33,7 @@ def _record(e: AlarmEvent) -> dict[str, Any]:
             "magnitude": None if math.isnan(e.magnitude) else e.magnitude,
             "residual_rms": None if math.isnan(e.residual_rms) else e.residual_rms,
             "threshold": None if math.isnan(e.threshold) else e.threshold,
+            "confidence": e.confidence,
             "estimator": e.estimator, "message": e.message, "vehicle": e.vehicle}
 
 

@@ -26,7 +26,7 @@ ATMACA_NAMES = ("otsekf_hosm", "gs_iotsekf", "gs_atsekf")
 
 def _atmaca_run(job: tuple[str, int | None]) -> ImuRun:
     name, seed = job
-    return simulate_imu(preset(name, seed=seed), atmaca_variants)
+    return simulate_imu(preset(name, seed=seed), variants=atmaca_variants)
 
 
 def atmaca2025(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:

@@ -22,7 +22,6 @@ import numpy as np
 
 from gcs_monitor.core.frames import euler_rates
 from gcs_monitor.core.units import RAD2DEG
-from gcs_monitor.estimators.imu_ts import FAULT_CHANNELS, ImuTwoStageEstimator, Lu2016Table1
 from gcs_monitor.evaluation.configs import lu2016_variants
 from gcs_monitor.evaluation.records import AXES, SIM_CHANNELS, ImuRun
 from gcs_monitor.evaluation.report import md_table, plot_imu_run, write_csv
@@ -30,6 +29,7 @@ from gcs_monitor.evaluation.runner import run_parallel
 from gcs_monitor.evaluation.runs import simulate_imu
 from gcs_monitor.evaluation.scenarios import TABLE2_PRESETS, closed_loop_scenario, preset
 from gcs_monitor.evaluation.scoring import SCORE_DELAY_S, rmse, score_masks
+from gcs_monitor.families.imu.imu_ts import FAULT_CHANNELS, ImuTwoStageEstimator, Lu2016Table1
 from gcs_monitor.telemetry.frame import Frame, ImuSample
 from sim_vehicle.faults.profiles import FaultInjector, FaultSpec
 from sim_vehicle.run import make_simulation
@@ -45,7 +45,7 @@ LU_NAMES = ("gs_atsekf", "gs_iotsekf", "as_atsekf", "as_iotsekf")
 
 def _lu_run(job: tuple[str, int]) -> ImuRun:
     name, seed = job
-    return simulate_imu(preset(name, seed=seed), lu2016_variants)
+    return simulate_imu(preset(name, seed=seed), variants=lu2016_variants)
 
 
 def lu2016_table2(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:

@@ -30,7 +30,8 @@ plus SCORE_DELAY_S after it is excluded. The injected window is scored from its 
 
 FDI thresholds on real data: Zipline flights are split by index: the even-index flights'
 fault-free replays calibrate the IMU channel thresholds (``fdi.monitor.calibrate``, rule
-"max"), the odd-index flights are the evaluation set for the alarm check. OnSpeed (one flight) is
+"max", over the monitor's windows: ``[imu.ts.fdi] window_s`` = 0.5 s, 25 samples of the 50 Hz
+IMU), the odd-index flights are the evaluation set for the alarm check. OnSpeed (one flight) is
 checked with the Zipline thresholds and with the monitor defaults. "Re-anchor notices" counts
 the ESTIMATOR events (gcs_monitor/families/imu/gating.py: a velocity or attitude step the IMU
 cannot explain, or an input gap; states re-anchored, fault estimates kept, channels not judged
@@ -52,17 +53,16 @@ from typing import Any
 
 import numpy as np
 
-from gcs_monitor.config import MonitorConfig
-from gcs_monitor.config.loader import FdiConfig, SetConfig
 from gcs_monitor.convert.writer import convert_file, lu2016_table2_injector
 from gcs_monitor.core.frames import dcm_ned_frd, euler_rates
 from gcs_monitor.core.units import RAD2DEG
-from gcs_monitor.estimators.imu_ts import FAULT_CHANNELS, Lu2016Table1
 from gcs_monitor.evaluation.configs import (
-    EstimatorFactory,
-    gs_atsekf_with,
     imu_config,
-    set_thresholds,
+    imu_fdi_sets,
+    measured_period_s,
+    window_n,
+    with_imu_noise,
+    with_imu_thresholds,
 )
 from gcs_monitor.evaluation.data import real_data_file
 from gcs_monitor.evaluation.records import AXES, REPORT_SCALE
@@ -70,6 +70,8 @@ from gcs_monitor.evaluation.report import md_table, write_csv
 from gcs_monitor.evaluation.runner import run_parallel
 from gcs_monitor.evaluation.runs import replay_packets, tlog_chunks
 from gcs_monitor.evaluation.scoring import SCORE_DELAY_S
+from gcs_monitor.families.imu.config import ImuFamilyConfig
+from gcs_monitor.families.imu.imu_ts import FAULT_CHANNELS, Lu2016Table1
 from gcs_monitor.fdi.events import AlarmState
 from gcs_monitor.fdi.monitor import calibrate
 
@@ -80,7 +82,6 @@ LAUNCH_SETTLE_S = 0.5
 STATIONARY_BEFORE_S = -1.2
 RESET_S = (7.4, 8.9)
 G_MPS2 = 9.78  # only for the velocity-mismatch statistic (Muhanga, 1,700 m)
-IMU_RATE_HZ = 50.0
 
 
 # ------------------------------------------------------------------------------------------------
@@ -159,22 +160,27 @@ def onspeed_noise(path: Path) -> tuple[Lu2016Table1, dict[str, float]]:
     return Lu2016Table1(**st), st
 
 
-def _estimators(noise: Lu2016Table1) -> EstimatorFactory:
-    return lambda: gs_atsekf_with(noise, IMU_RATE_HZ)
+def imu_for(noise: Lu2016Table1, thresholds: ImuFamilyConfig | None = None
+            ) -> ImuFamilyConfig:
+    """The monitor's IMU family (GS-KM ATSEKF) with a data source's sensor noise and the
+    channel thresholds of ``thresholds`` (default: the ``[imu]`` defaults). The estimator
+    measures the IMU period (50 Hz for both sources) itself."""
+    return with_imu_noise(thresholds or ImuFamilyConfig(), noise)
 
 
-Replay = tuple[Path, Path, str, Lu2016Table1, bool, MonitorConfig | None]
+Replay = tuple[Path, Path, str, Lu2016Table1, bool, ImuFamilyConfig | None]
 
 
 def replay_flight(job: Replay) -> dict[str, Any]:
     """Convert (optionally with the Lu2016 Table 2 injection) and replay one flight; ``job`` is
     (flight file, temporary folder, a tag that makes the tlog name unique, noise, inject,
-    monitor configuration or None for :func:`~gcs_monitor.evaluation.configs.imu_config`)."""
-    path, tmp, tag, noise, inject, cfg = job
+    the IMU family whose thresholds to use or None for the defaults); the monitor is
+    :func:`~gcs_monitor.evaluation.configs.imu_config` with :func:`imu_for`."""
+    path, tmp, tag, noise, inject, thresholds = job
     out = tmp / f"{tag}_{path.stem}{'_inj' if inject else '_clean'}.tlog"
     res = convert_file(path, out, inject_imu=lu2016_table2_injector() if inject else None)
     notices: list[Any] = []
-    t_s, f_hat, events = replay_packets(tlog_chunks(out), _estimators(noise), cfg,
+    t_s, f_hat, events = replay_packets(tlog_chunks(out), imu_config(imu_for(noise, thresholds)),
                                         notices=notices)
     f = f_hat.get("imu_ts", np.full((len(t_s), 6), math.nan))
     truth = np.zeros((len(t_s), 6))
@@ -231,17 +237,20 @@ def _channels_alarmed(r: dict[str, Any]) -> list[bool]:
     return out
 
 
-def _thresholds(runs: list[dict[str, Any]], zipline: bool) -> dict[str, SetConfig]:
-    """IMU channel J_th from fault-free replays (rule "max" over the scored samples)."""
-    base = FdiConfig()
+def _thresholds(runs: list[dict[str, Any]], zipline: bool) -> ImuFamilyConfig:
+    """IMU channel J_th from fault-free replays (rule "max" over the scored samples), each
+    over the N_eval-sample windows the monitor uses at the replay's measured IMU period."""
+    base = ImuFamilyConfig()
+    sets = imu_fdi_sets(base)
     thr = np.zeros(6)
     for r in runs:
         _, ff = _masks(r, zipline)
+        period_s = measured_period_s(r["t_s"])
         for i in range(6):
-            n = (base.acc if i < 3 else base.gyro).n_eval
+            n = window_n(sets.acc if i < 3 else sets.gyro, period_s)
             if ff.sum() >= n:
                 thr[i] = max(thr[i], calibrate(r["f_hat"][ff, i], rms_window_n=n))
-    return set_thresholds({"acc": float(thr[:3].max()), "gyro": float(thr[3:].max())}, base)
+    return with_imu_thresholds(base, float(thr[:3].max()), float(thr[3:].max()))
 
 
 
@@ -265,19 +274,18 @@ def imu_real(out_dir: Path, jobs: int, quick: bool, data_dir: Path) -> str:
         tmp = Path(td)
         clean = run_parallel(replay_flight, [(p, tmp, "a", zn, False, None) for p in zips],
                              jobs, desc="imu_real calibrate")
-        sets = _thresholds(clean[0::2], zipline=True)
-        cfg = imu_config(sets)
+        imu = _thresholds(clean[0::2], zipline=True)
         n, n_eval = len(zips), len(zips[1::2])
-        work: list[Replay] = [(p, tmp, "b", zn, True, cfg) for p in zips]
-        work += [(p, tmp, "c", zn, False, cfg) for p in zips[1::2]]
-        work += [(onspeed, tmp, "d", on, True, cfg), (onspeed, tmp, "e", on, False, cfg),
-                 (onspeed, tmp, "f", on, False, imu_config(None))]
+        work: list[Replay] = [(p, tmp, "b", zn, True, imu) for p in zips]
+        work += [(p, tmp, "c", zn, False, imu) for p in zips[1::2]]
+        work += [(onspeed, tmp, "d", on, True, imu), (onspeed, tmp, "e", on, False, imu),
+                 (onspeed, tmp, "f", on, False, None)]
         res = run_parallel(replay_flight, work, jobs, desc="imu_real")
         inj, eval_clean = res[:n], res[n:n + n_eval]
         r_on_inj, r_on_clean, r_on_clean_def = res[n + n_eval:]
     lines.append(f"Zipline thresholds from the fault-free replays of flights {zips[0].stem}, "
-                 f"every 2nd ({len(clean[0::2])}): acc {sets['acc'].threshold:.4g} m/s^2, gyro "
-                 f"{sets['gyro'].threshold * RAD2DEG:.4g} deg/s")
+                 f"every 2nd ({len(clean[0::2])}): acc {imu_fdi_sets(imu).acc.threshold:.4g} "
+                 f"m/s^2, gyro {imu_fdi_sets(imu).gyro.threshold * RAD2DEG:.4g} deg/s")
     z = np.array([_rmse(r, _masks(r, True)[0]) for r in inj])
     rows.append(["Zipline median", len(zips)] + [float(x) for x in np.nanmedian(z, axis=0)])
     rows.append(["Zipline worst", len(zips)] + [float(x) for x in np.nanmax(z, axis=0)])

@@ -18,14 +18,16 @@ from typing import Any
 
 import numpy as np
 
-from gcs_monitor.config import MonitorConfig, scheduled_threshold
+from gcs_monitor.config import MonitorConfig
 from gcs_monitor.core.units import DEG2RAD, KT2MPS
 from gcs_monitor.evaluation.configs import (
+    airdata_of,
     declared_weather,
     open_loop,
     variant_config,
-    with_airdata,
+    weather_of,
     with_thresholds,
+    with_weather,
     without_wind_accel,
 )
 from gcs_monitor.evaluation.records import METHOD_MEDIAN, METHOD_MONITOR, RunRecord
@@ -52,6 +54,7 @@ from gcs_monitor.evaluation.scenarios import (
     wind_scenarios,
 )
 from gcs_monitor.evaluation.scoring import CALIBRATE_K, estimate_error, table3
+from gcs_monitor.fdi.config import scheduled_threshold
 from gcs_monitor.fdi.metrics import MetricsRow, metrics_table
 from sim_vehicle.scenario import Scenario
 
@@ -69,8 +72,8 @@ PAPER_T3 = {"fault-free": (2.44, 8.22, 0.02, 0.02), "faulty": (16.39, 8.22, 0.24
 
 
 def _series_run(job: tuple[Scenario, MonitorConfig, bool]) -> RunRecord:
-    """One run with series; ``declare`` False keeps ``cfg.airdata`` instead of the scenario's
-    declared weather."""
+    """One run with series; ``declare`` False keeps ``cfg``'s ``[airdata.weather]`` instead of
+    the scenario's declared weather."""
     sc, cfg, declare = job
     return run_one(0, sc, cfg, keep_series=True, declare_weather=declare)
 
@@ -118,13 +121,13 @@ def fig45_rows(rates: Sequence[float], jobs: int, *, wind: str = "1",
         j = s["cas.rms"][inside]
         res = [f for f in rec.fault_results if f.method == METHOD_MONITOR]
         n_det = sum(f.detected for f in res)
-        rows.append({"variant": cfg.estimators.airdata, "wind": wind,
+        rows.append({"variant": airdata_of(cfg).estimator, "wind": wind,
                      "rate_ktsps": rate,
                      "detected_of_3": n_det,
                      "delay_max_s": max((f.delay_s for f in res if f.detected), default=math.nan),
                      "delay_min_s": min((f.delay_s for f in res if f.detected), default=math.nan),
                      "mean_rms_kts": float(np.nanmean(j)) / KT2MPS,
-                     "threshold_kts": cfg.fdi.cas.threshold / KT2MPS})
+                     "threshold_kts": airdata_of(cfg).fdi.cas.threshold / KT2MPS})
     return rows
 
 
@@ -169,16 +172,18 @@ def wan2018_fig3(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
     winds = wind_scenarios()
     # Wan2018 sec. VI-A: one set of assumed bounds for all three scenarios, which winds 1 and 2
     # respect and wind 3 exceeds. Ours: the declared weather of wind scenario 2 (its forecast,
-    # configs.declared_weather), kept for all three runs.
+    # configs.declared_weather), kept for all three runs, with the lateral terms of the
+    # monitor's defaults (as measured so far: the weather used to replace the whole [airdata]
+    # section, model switches included, whose default has them on).
     # Open loop (no isolation): Fig. 3 measures the residual generator's robustness; with the
     # default J_th in place a false alarm would remove the CAS set and the "fault-free J" after
     # it would be the model-only drift (see calibrate_campaign). The last column says whether
     # the default J_th (MonitorConfig: 1 deg, 4 kt) would have been crossed.
     assumed = declared_weather(fig_scenario("fig3_assumed", winds["2"], dur))
     work = [(fig_scenario(f"fig3_{v}_w{k}", w, dur),
-             with_airdata(open_loop(variant_config(v)), assumed), False)
+             with_weather(open_loop(variant_config(v, lateral=True)), assumed), False)
             for k, w in winds.items() for v in VARIANTS]
-    default_th = MonitorConfig().fdi
+    default_th = airdata_of(MonitorConfig()).fdi
     recs = run_parallel(_series_run, work, jobs, desc="fig3")
     rows: list[list[Any]] = []
     for (sc, cfg, _), rec in zip(work, recs, strict=True):
@@ -188,7 +193,7 @@ def wan2018_fig3(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
         ja, jc = float(np.nanmax(s["aoa.rms"][settled])), float(np.nanmax(s["cas.rms"][settled]))
         over = [g for g, j, th in (("AoA", ja, default_th.aoa.threshold),
                                    ("CAS", jc, default_th.cas.threshold)) if j > th]
-        rows.append([cfg.estimators.airdata, sc.name.split("_w")[-1], ja / DEG2RAD,
+        rows.append([airdata_of(cfg).estimator, sc.name.split("_w")[-1], ja / DEG2RAD,
                      jc / KT2MPS, "+".join(over) or "none"])
     write_csv(out / "wan2018_fig3.csv", ["variant", "wind", "max_J_aoa_deg", "max_J_cas_kts",
                                          "over_default_J_th"], rows)
@@ -266,7 +271,7 @@ def calibrate_campaign(n_runs: int, jobs: int, duration_s: tuple[float, float],
         scs += calm_calibration_scenarios(n_calm)
     work = [(i, sc, open_loop(base)) for i, sc in enumerate(scs)]
     res = run_parallel(_campaign_run, work, jobs, desc="calibrate", progress=progress)
-    sig = [declared_weather(sc, base.airdata).turbulence_sigma_mps for sc in scs]
+    sig = [declared_weather(sc, weather_of(base)).turbulence_sigma_mps for sc in scs]
     th: dict[str, float] = {}
     for s in ("aoa", "cas"):
         pts = [(x, r.j_max.get(s, 0.0)) for x, (r, _) in zip(sig, res, strict=True)]
@@ -287,12 +292,13 @@ def run_campaign_wan2018(n_runs: int, n_cal: int, jobs: int, duration_s: tuple[f
                          equal_pair: bool = False) -> dict[str, Any]:
     """Calibrate J_th on fault-free seeds (one J_th per set, or scheduled on the declared
     turbulence), then run the campaign (monitor + median vote). ``lateral`` adds bank and
-    sideslip to the model (``[airdata] lateral_terms``; ours); ``nrz_gain`` reads Table II's
-    non-return to zero literally (:func:`campaign_scenarios`; calibration is fault-free, so
-    the thresholds do not change); ``restart_peers`` restarts the peers' windows on an
-    isolation (``[fdi.*] restart_peers``; ours; calibration is open loop, so it does not
-    change the thresholds either); ``equal_pair`` fuses the last two instances with equal
-    weights (``[fdi.*] equal_pair_weights``; ours; calibration runs keep all three)."""
+    sideslip to the model (``[airdata.filter] lateral_terms``; ours); ``nrz_gain`` reads
+    Table II's non-return to zero literally (:func:`campaign_scenarios`; calibration is
+    fault-free, so the thresholds do not change); ``restart_peers`` restarts the peers'
+    windows on an isolation (``[airdata.fdi.*] restart_peers``; ours; calibration is open
+    loop, so it does not change the thresholds either); ``equal_pair`` fuses the last two
+    instances with equal weights (``[airdata.fdi.*] equal_pair_weights``; ours; calibration
+    runs keep all three)."""
     t0 = time.perf_counter()
     base = variant_config(variant, lateral=lateral, restart_peers=restart_peers,
                           equal_pair=equal_pair)
@@ -430,9 +436,10 @@ def fault_rows(res: dict[str, Any]) -> list[list[Any]]:
         spec = {f.channel: f for f in sc.faults} if sc is not None else {}
         jth: dict[str, Any] = {"aoa": "", "cas": ""}
         if cfg is not None and sc is not None:
-            sig = declared_weather(sc, cfg.airdata).turbulence_sigma_mps
-            jth = {"aoa": scheduled_threshold(cfg.fdi.aoa, sig),
-                   "cas": scheduled_threshold(cfg.fdi.cas, sig)}
+            sig = declared_weather(sc, weather_of(cfg)).turbulence_sigma_mps
+            fdi = airdata_of(cfg).fdi
+            jth = {"aoa": scheduled_threshold(fdi.aoa, sig),
+                   "cas": scheduled_threshold(fdi.cas, sig)}
         by = {(f.method, f.channel): f for f in r.fault_results}
         for ft in r.faults:
             ch = str(ft.channel)
@@ -594,8 +601,8 @@ def wan2018_campaign(out_dir: Path, jobs: int = 1, quick: bool = False,
 # literally; the ``_LITERAL_ONLY`` ablations were measured with the literal reading only.
 CAMPAIGN_SETUPS: dict[str, tuple[str, dict[str, bool]]] = {
     "restart": ("The monitor's defaults: the lateral terms, one J_th, and the peers' windows "
-                "restarted when an instance is isolated (``[fdi.*] restart_peers``), on the same "
-                "runs.", {"lateral": True, "restart_peers": True}),
+                "restarted when an instance is isolated (``[airdata.fdi.*] restart_peers``), on "
+                "the same runs.", {"lateral": True, "restart_peers": True}),
     "extensions": ("All our extensions together (lateral terms, J_th scheduled on the declared "
                    "turbulence, the peers' windows restarted on an isolation, equal weights for "
                    "the last two instances; ``configs/wan2018_transport_extensions.toml``), on "
@@ -606,7 +613,7 @@ CAMPAIGN_SETUPS: dict[str, tuple[str, dict[str, bool]]] = {
 _LITERAL_ONLY: dict[str, tuple[str, dict[str, bool]]] = {
     "scheduled": ("J_th scheduled on the declared turbulence (:func:`threshold_schedule`), our "
                   "alternative to Wan2018's single J_th, on its own.", {"schedule": True}),
-    "lateral": ("Bank and sideslip in the model (``[airdata] lateral_terms``) and J_th "
+    "lateral": ("Bank and sideslip in the model (``[airdata.filter] lateral_terms``) and J_th "
                 "scheduled on the declared turbulence.", {"schedule": True, "lateral": True}),
     "lateral_only": ("The lateral terms with Wan2018's single J_th and windows: the model "
                      "change on its own.", {"lateral": True}),

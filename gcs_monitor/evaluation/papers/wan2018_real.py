@@ -26,6 +26,7 @@ from gcs_monitor.core.atmosphere import isa_temperature_k
 from gcs_monitor.core.types import ChannelId
 from gcs_monitor.core.units import DEG2RAD, KT2MPS
 from gcs_monitor.evaluation.configs import (
+    airdata_of,
     light_aircraft_estimator,
     variant_config,
     with_thresholds,
@@ -217,11 +218,11 @@ def wan2018_onspeed(out_dir: Path, jobs: int, quick: bool, data_dir: Path) -> st
     hdr = ["case", "faulty instances", "detected", "delay max [s]", "false isolation",
            "AoA err RMS [deg]", "AoA err max [deg]", "IAS err RMS [kt]", "IAS err max [kt]"]
     write_csv(out / "wan2018_onspeed.csv", hdr, rows)
+    fdi = airdata_of(cfg).fdi
     head = (f"Measured noise (std of x - 11-sample centred mean): AoA {sig['aoa'] / DEG2RAD:.3f} "
             f"deg, IAS {sig['cas'] / KT2MPS:.3f} kt. Thresholds (1.5 x worst J of the clean "
             f"flight over {len(cal_seeds)} other noise seeds): AoA "
-            f"{cfg.fdi.aoa.threshold / DEG2RAD:.3f} deg, "
-            f"IAS {cfg.fdi.cas.threshold / KT2MPS:.2f} kt."
+            f"{fdi.aoa.threshold / DEG2RAD:.3f} deg, IAS {fdi.cas.threshold / KT2MPS:.2f} kt."
             "\n\n")
     return head + md_table(hdr, rows)
 

@@ -81,5 +81,10 @@ class ImuFamilyConfig:
                             "becomes available again without a re-initialisation notice")
     no_data_window_s: float = param(0.5, "an IMU instance silent this long while another "
                                     "delivers raises no_data; 0 turns the check off")
+    max_inconsistency: float = param(20.0, "an estimator's fault estimates are not judged while "
+                                     "its normalised innovation squared averages more than this "
+                                     "(1 for a noise model that fits the vehicle; calibrate "
+                                     "fits it); 0 turns the check off")
+    consistency_window_s: float = param(10.0, "span of that average", positive=True)
     ts: ImuTsSection = section(ImuTsSection, "Lu2016 ATSEKF on the GS-KM")
     hosm: ImuHosmSection = section(ImuHosmSection, "Atmaca2025 OTSEKF + HOSM")

@@ -15,6 +15,7 @@ estimator's warm-up), never with an assumed rate.
 from __future__ import annotations
 
 import math
+from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -36,6 +37,42 @@ US_PER_S = 1_000_000
 # 10 Hz the attitude kinematics between samples is not resolved; docs/results.md, rate sweep)
 RATE_HZ = (10.0, 400.0)
 NO_DATA_PERIODS = 3.0  # an IMU instance is silent after this many of its own periods at least
+
+
+class _Consistency:
+    """Running mean of an estimator's normalised innovation squared, per measurement row.
+
+    A filter whose noise model fits the vehicle has ``E[nu_i^2 / S_ii] = 1``; Lu2016's filter
+    reports ``test_ratio = nu^2 / (gate^2 S)`` per row, so ``lambda = gate^2 x mean(test_ratio)``
+    over the window estimates that expectation. Far above 1, the innovations are not what the
+    noise model expects (another airframe's vibration, a GPS noisier than Table 1): its fault
+    estimates then carry that mismatch and are not judged.
+    """
+
+    __slots__ = ("span_us", "_q", "_sum", "_n_since")
+
+    def __init__(self, span_us: int) -> None:
+        self.span_us = span_us
+        self._q: deque[tuple[int, float]] = deque()
+        self._sum = 0.0
+        self._n_since = 0
+
+    def add(self, t_us: int, lam: float) -> None:
+        q = self._q
+        q.append((t_us, lam))
+        self._sum += lam
+        while q[0][0] <= t_us - self.span_us:
+            self._sum -= q.popleft()[1]
+        self._n_since += 1
+        if self._n_since >= 1000:  # exact re-summation against rounding drift
+            self._n_since = 0
+            self._sum = math.fsum(x for _, x in q)
+
+    def mean(self) -> float:
+        return self._sum / len(self._q) if self._q else math.nan
+
+    def full(self, t_us: int) -> bool:
+        return bool(self._q) and t_us - self._q[0][0] >= self.span_us // 2
 
 
 @dataclass
@@ -74,6 +111,9 @@ class ImuFamily:
                 self._est.append(_Judged(ImuHosmEstimator(cfg.hosm.estimator), cfg.hosm.fdi))
         self._period = SamplePeriod()
         self._estimates: list[Estimate] = []
+        # innovation consistency of each estimator that reports test ratios
+        self._consistency: dict[str, _Consistency] = {}
+        self._gate2 = cfg.ts.estimator.filter.gate_sigma ** 2
         self._inputs = False  # attitude and GPS velocity have been in the telemetry
         # no-data check of every IMU instance: last sample time, alarm
         self._no_data_us = round(cfg.no_data_window_s * US_PER_S)
@@ -121,13 +161,16 @@ class ImuFamily:
                 if j.judging and j.notice is None:
                     verdict.events.append(self._notice(t_us, j, e, AlarmState.RAISED))
                 j.judging = False
+            misfit = self._inconsistent(t_us, e)
             # Filter convergence: fault estimates are not judged during the warm-up after an
             # estimator (re)starts (its start-up transient is up to 10x its converged
             # fault-free level; docs/results.md, "Detection and isolation with imu_ts").
             if j.start_us is None:
                 j.start_us = t_us + self._warmup_us
-            judged = t_us >= j.start_us
-            if judged:
+            judged = t_us >= j.start_us and not misfit
+            if misfit:
+                reasons.append(misfit)
+            elif judged:
                 j.judging = True
                 judged_any = True
                 if j.notice is not None:
@@ -180,6 +223,23 @@ class ImuFamily:
                        f"{n} IMUs deliver")
                 events += sm.step(t, i in silent, fault_type=FaultType.NO_DATA, message=msg)
         return events
+
+    def _inconsistent(self, t_us: int, e: Estimate) -> str:
+        """Why an estimator's innovations do not fit its noise model (empty when they do, or
+        when it does not report test ratios)."""
+        lim = self.cfg.max_inconsistency
+        tr = e.states.get("test_ratio")
+        if lim <= 0.0 or tr is None:
+            return ""
+        c = self._consistency.get(e.name)
+        if c is None:
+            c = self._consistency[e.name] = _Consistency(
+                round(self.cfg.consistency_window_s * US_PER_S))
+        c.add(t_us, self._gate2 * sum(tr.tolist()) / len(tr))
+        if c.full(t_us) and c.mean() > lim:
+            return (f"{e.name}: innovations {c.mean():.0f}x what its noise model expects: "
+                    "calibrate this airframe (gcs-monitor calibrate)")
+        return ""
 
     def _too_slow(self) -> str:
         """Why the IMU rate is outside the family's range (empty when it is inside or not

@@ -299,7 +299,7 @@ class ImuTwoStageEstimator:
         r = (y - new.x).tolist()
         r[5] = _wrap_pi(r[5])  # y[5] was unwrapped against the previous state, new.x may wrap
         self._r_prev = r
-        est = self._estimate(frame.t_us, new, u_m, innov.nu, True)
+        est = self._estimate(frame.t_us, new, u_m, innov.nu, True, innov.test_ratio)
         if why:
             return replace(est, reinit=why, reinit_warmup_s=cfg.reanchor_warmup_s)
         return est
@@ -447,12 +447,15 @@ class ImuTwoStageEstimator:
             np.square([p.acc_rate_sigma_mps3 * dt_s] * 3 + [p.gyro_rate_sigma_radps2 * dt_s] * 3)
         )
 
-    def _estimate(self, t_us: int, s: TwoStageState, u_m: Vec, nu: Vec, ok: bool) -> Estimate:
+    def _estimate(self, t_us: int, s: TwoStageState, u_m: Vec, nu: Vec, ok: bool,
+                  test_ratio: Vec | None = None) -> Estimate:
         x = s.x
         f = s.f.tolist()
         u_hat = (u_m - s.f).tolist()  # Lu2016 eq. 60
         if self.cfg.model == "gs":
             states = {"vel_ned_mps": x[:3].copy(), "euler_rad": x[3:].copy()}
+            if test_ratio is not None:  # nu_i^2 / (gate^2 S_ii) per row: consistency check
+                states["test_ratio"] = test_ratio
             res_names = RESIDUAL_CHANNELS_GS
         else:
             states = {"vel_air_frd_mps": x[:3].copy(), "euler_rad": x[3:].copy()}

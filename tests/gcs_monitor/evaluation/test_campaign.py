@@ -30,9 +30,8 @@ BIAS_DEG = 4.0
 
 
 def _consensus_cfg() -> MonitorConfig:
-    c = MonitorConfig()
-    return dataclasses.replace(c, estimators=dataclasses.replace(
-        c.estimators, imu_ts=False, imu_hosm=False, airdata="none"))
+    return MonitorConfig().with_family("imu", enabled=False).with_family("airdata",
+                                                                         estimator="none")
 
 
 def _short(faults: tuple[FaultSpec, ...], seed: int) -> object:

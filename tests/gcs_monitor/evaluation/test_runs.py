@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from gcs_monitor.evaluation.configs import default_variant, imu_config
+from gcs_monitor.evaluation.configs import imu_config
 from gcs_monitor.evaluation.runs import simulate_imu
 from gcs_monitor.evaluation.scenarios import preset
 from gcs_monitor.evaluation.scoring import detection_summary, rmse, score_masks
@@ -17,12 +17,12 @@ def test_lu2016_calm_20s_through_mavlink_all_channels_alarmed() -> None:
     Lu2016 synthetic truth (docs/results.md, "Synthetic truth": f_Az 0.41 m/s^2, f_q 0.146 deg/s)
     with margin for the 10-20 s window."""
     sc = preset("lu2016_calm", duration_s=20.0)
-    run_cfg = imu_config({})
-    run = simulate_imu(sc, default_variant, run_cfg)
+    run_cfg = imu_config()
+    run = simulate_imu(sc, run_cfg)
     d = detection_summary(run)
     assert d["missed"] == 0 and d["false"] == 0
     # the 0.1 m/s^3 drift of f_Ay crosses the 0.5 m/s^2 default threshold after 5 s
-    thr_ay = run_cfg.fdi.acc.threshold / 0.1
+    thr_ay = run_cfg.family("imu").ts.fdi.acc.threshold / 0.1
     bounds = [3.0, thr_ay + 1.5, 3.0, 3.0, 3.0, 3.0]
     assert all(0.0 < x < b for x, b in zip(d["delay_s"], bounds, strict=True)), d["delay_s"]
     inf, quiet = score_masks(run)

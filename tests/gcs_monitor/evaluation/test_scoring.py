@@ -12,6 +12,7 @@ from gcs_monitor.core.types import ChannelId
 from gcs_monitor.core.units import DEG2RAD, KT2MPS
 from gcs_monitor.evaluation import scoring
 from gcs_monitor.evaluation.records import FaultTruth, ImuRun
+from gcs_monitor.families.imu.imu_ts import FAULT_CHANNELS
 from gcs_monitor.fdi.events import AlarmEvent, AlarmKind, AlarmState, FaultType
 
 # ------------------------------------------------------------------------------------------------

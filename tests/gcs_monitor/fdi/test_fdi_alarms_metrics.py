@@ -91,3 +91,58 @@ def test_metrics_raise_outside_interval_is_false_isolation() -> None:
     assert out.false_isolation and out.missed
     out = evaluate_run([_raise(a0, 2100)], {a0: [(1000, 2000)]}, grace_us=200)["aoa"]
     assert not out.false_isolation and not out.missed
+
+
+def test_link_loss_is_measured_over_a_sliding_window() -> None:
+    """Cumulative counters in, loss of the last ``loss_window_s`` out: 30 % loss for 3 s, then
+    a clean link; the alarm clears once the lossy seconds have left the 10 s window."""
+    mon = LinkAlarmMonitor()
+    msgs = lost = 0.0
+    states = []
+    for k in range(20):
+        lossy = k < 3
+        msgs += 70.0 if lossy else 100.0
+        lost += 30.0 if lossy else 0.0
+        states += [(k, e.state) for e in mon.step(k * 1_000_000, {"messages": msgs,
+                                                                   "lost": lost})]
+    assert states[0] == (1, AlarmState.RAISED)
+    assert states[-1] == (12, AlarmState.CLEARED)  # the window starts after the lossy seconds
+
+
+def test_link_holds_restart_when_the_vehicle_clock_steps_back() -> None:
+    """A reboot seen at an old-clock time, then the new clock from 0.1 s: the reboot (and CRC)
+    holds run on the new clock and the alarms clear 5 s into it, not when it passes the old."""
+    mon = LinkAlarmMonitor()
+    mon.step(7_000_000, {"boot_count": 0, "crc_errors": 0})
+    ev = mon.step(8_000_000, {"boot_count": 1, "crc_errors": 3})
+    assert {(e.channel.axis, e.state) for e in ev} == {("reboot", AlarmState.RAISED),
+                                                       ("crc", AlarmState.RAISED)}
+    cleared = []
+    for k in range(8):
+        t_us = 100_000 + k * 1_000_000
+        cleared += [(t_us, e.channel.axis) for e in mon.step(t_us, {"boot_count": 1,
+                                                                    "crc_errors": 3})
+                    if e.state is AlarmState.CLEARED]
+    assert cleared == [(5_100_000, "crc"), (5_100_000, "reboot")]
+
+
+def test_duplicate_sysid_alarm_follows_the_flag() -> None:
+    mon = LinkAlarmMonitor()
+    assert mon.step(0, {"duplicate_sysid": 1.0})[0].state is AlarmState.RAISED
+    assert mon.step(1_000_000, {"duplicate_sysid": 0.0})[0].state is AlarmState.CLEARED
+
+
+def test_alarm_events_carry_the_confidence_in_their_type() -> None:
+    ch = ChannelId("aoa", 1)
+    sm = AlarmStateMachine(ch, AlarmKind.SENSOR_FAULT, "voting")
+    ev = sm.step(0, True, fault_type=FaultType.BIAS, magnitude=1.0, confidence=0.8)
+    assert ev[0].confidence == 0.8
+    assert sm.step(1_000_000, True, fault_type=FaultType.BIAS, magnitude=1.0,
+                   confidence=0.3) == []  # a confidence change alone is no event ...
+    ev = sm.step(2_000_000, False)
+    assert ev[0].state is AlarmState.CLEARED and ev[0].confidence == 0.3  # ... the next has it
+    # without a stated confidence: observed types are certain, unknown is not a decision
+    link = AlarmStateMachine(ChannelId("link", 1, "loss"), AlarmKind.LINK, "link")
+    assert link.step(0, True, fault_type=FaultType.LINK)[0].confidence == 1.0
+    lost = AlarmStateMachine(ChannelId("aoa", -1), AlarmKind.SET_LOST, "voting")
+    assert lost.step(0, True)[0].confidence == 0.0

@@ -6,7 +6,7 @@ import hashlib
 import json
 
 from gcs_monitor.link.decode import Decoder
-from gcs_monitor.link.stats import DUP_SUSTAIN, LinkStats
+from gcs_monitor.link.stats import DUP_HEARTBEATS_CLEAR, DUP_SUSTAIN, LinkStats
 from tests.helpers.mavgen import MavGen
 
 
@@ -108,3 +108,40 @@ def test_recent_rates_follow_a_rate_change():
     # windows close at 5, 10, 15 s: the last one (10-15 s) lies inside the 50 Hz part
     assert abs(st.recent_rates_hz["ATTITUDE"] - 50.0) < 50.0 * 0.05
     assert abs(st.as_dict()["rates_hz"]["ATTITUDE"] - k / st.span_s) < 1e-9
+
+
+def test_duplicate_sysid_clears_when_the_second_sender_stops():
+    st = LinkStats(1)
+    for k in range(DUP_SUSTAIN * 3):  # two senders interleave
+        st.on_packet(1, k % 256, "X", b"a%d" % k, 0.0)
+        st.on_packet(1, (k + 100) % 256, "X", b"b%d" % k, 0.0)
+    assert st.duplicate_sysid
+    seq = DUP_SUSTAIN * 3
+    for k in range(DUP_SUSTAIN):  # one sender left: the backward-step EWMA decays ...
+        st.on_packet(1, (seq + k) % 256, "X", b"c%d" % k, 0.0)
+    assert st.duplicate_sysid  # ... and must stay low for DUP_SUSTAIN packets
+    for k in range(DUP_SUSTAIN, 3 * DUP_SUSTAIN):
+        st.on_packet(1, (seq + k) % 256, "X", b"c%d" % k, 0.0)
+    assert not st.duplicate_sysid and st.duplicate_sysid_seen
+    assert st.as_dict()["duplicate_sysid"] is False
+
+
+def test_heartbeat_conflict_clears_after_agreeing_heartbeats():
+    st = LinkStats(1)
+    st.on_heartbeat(1, 1, 3)
+    st.on_heartbeat(1, 2, 3)  # another sender's type
+    for _ in range(DUP_HEARTBEATS_CLEAR - 1):
+        st.on_heartbeat(1, 2, 3)
+        assert st.duplicate_sysid
+    st.on_heartbeat(1, 2, 3)
+    assert not st.duplicate_sysid and st.duplicate_sysid_seen
+
+
+def test_clock_conflict_evidence_expires():
+    st = LinkStats(1)
+    st.duplicate_sysid = True  # what the assembler sets on interleaving vehicle clocks
+    for k in range(DUP_SUSTAIN - 1):
+        st.on_packet(1, k % 256, "X", b"a%d" % k, 0.0)
+    assert st.duplicate_sysid
+    st.on_packet(1, (DUP_SUSTAIN - 1) % 256, "X", b"last", 0.0)
+    assert not st.duplicate_sysid and st.duplicate_sysid_seen

@@ -39,6 +39,7 @@ def _event(**kw: object) -> AlarmEvent:
         estimator="voting",
         message="vane 2",
         vehicle=3,
+        confidence=0.75,
     )
     base.update(kw)
     return AlarmEvent(**base)  # type: ignore[arg-type]
@@ -46,7 +47,8 @@ def _event(**kw: object) -> AlarmEvent:
 
 def test_alarm_payload_keys_and_values() -> None:
     d = alarm_to_dict(_event(), wall_time_s=WALL_S)
-    assert d["schema_version"] == SCHEMA_VERSION == 1
+    assert d["schema_version"] == SCHEMA_VERSION == 2
+    assert d["confidence"] == 0.75
     assert d["type"] == "alarm"
     assert d["vehicle"] == 3
     assert d["channel"] == {"kind": "aoa", "instance": 2, "axis": ""}
@@ -91,6 +93,14 @@ def test_alarm_round_trip_property(
         fault_type=ftype,
     )
     assert alarm_from_dict(json.loads(dumps(alarm_to_dict(ev, wall_time_s=WALL_S)))) == ev
+
+
+def test_schema_1_alarm_is_read_without_confidence() -> None:
+    d = alarm_to_dict(_event(), wall_time_s=WALL_S)
+    d["schema_version"] = 1
+    del d["confidence"]
+    back = alarm_from_dict(d)
+    assert math.isnan(back.confidence) and back.fault_type is FaultType.BIAS
 
 
 def test_newer_schema_rejected() -> None:

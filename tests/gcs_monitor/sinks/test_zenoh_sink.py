@@ -172,5 +172,6 @@ def test_format_alarm_line() -> None:
 
     line = format_alarm(alarm_to_dict(_alarm(2_500_000), wall_time_s=0.0))
     assert line.startswith("1970-01-01T00:00:00.000Z v4 t=2.500s RAISED")
-    assert "gyro1.r oscillation mag=+0.02 rad/s J=0.015 J_th=0.01 [yaw_smo] yaw gyro" in line
+    assert ("gyro1.r oscillation mag=+0.02 rad/s conf=0.00 J=0.015 J_th=0.01 [yaw_smo] yaw gyro"
+            in line)
     assert subscribe_alarms  # exported helper

@@ -1,5 +1,5 @@
 """Wan2018 experiments (gcs_monitor.evaluation.papers.wan2018) and the slow-drift fix of the
-MHE's fused measurement they measured (gcs_monitor.pipeline.MheMeasurementFusion)."""
+MHE's fused measurement they measured (gcs_monitor.fdi.fusion.MheMeasurementFusion)."""
 
 from __future__ import annotations
 
@@ -10,9 +10,14 @@ import pytest
 
 from gcs_monitor.config import MonitorConfig
 from gcs_monitor.core.types import ChannelId
+from gcs_monitor.evaluation.configs import families_for
 from gcs_monitor.evaluation.papers import wan2018
+from gcs_monitor.families.airdata.estimator import AirDataEstimator
 from gcs_monitor.fdi.events import AlarmKind, AlarmState, SetStatus
-from gcs_monitor.pipeline import MheMeasurementFusion
+from gcs_monitor.fdi.fusion import MheMeasurementFusion
+from gcs_monitor.monitor import Monitor
+from sim_vehicle.run import iter_packets
+from sim_vehicle.scenario import load_scenario
 
 
 def _status(rms: tuple[float, ...], faulty: tuple[bool, ...] = (False, False, False)) -> SetStatus:
@@ -69,14 +74,11 @@ def test_experiments_registered() -> None:
 @pytest.mark.slow
 def test_demo_preset_alarms_exactly_the_faulty_instances() -> None:
     """demo_airdata_faults (aoa1 bias, cas0 slow drift 0.5 kt/s, cas2 runaway -5 kt/s) through
-    the MAVLink path with the CMHE reference: exactly those three instances are raised."""
-    from gcs_monitor.families.airdata.estimator import AirDataEstimator
-    from gcs_monitor.monitor import Monitor
-    from sim_vehicle.run import iter_packets
-    from sim_vehicle.scenario import load_scenario
-
+    the MAVLink path with the CMHE reference (its defaults: fixed wind box, wings-level model)
+    and no IMU estimator: exactly those three instances are raised."""
     sc = load_scenario("demo_airdata_faults")
-    mon = Monitor(MonitorConfig(), estimators_for=lambda s: ([], AirDataEstimator()))
+    cfg = MonitorConfig().with_family("imu", enabled=False)
+    mon = Monitor(cfg, families_for=families_for(cfg, airdata=AirDataEstimator))
     buf: list[bytes] = []
     for _, p in iter_packets(sc):
         buf.append(p)

@@ -1,0 +1,264 @@
+"""Every flight log the monitor reads, as one MAVLink byte source (``open_log``).
+
+A log reader turns its log into the MAVLink messages of the telemetry contract
+(docs/telemetry.md): ArduPilot DataFlash (``dataflash.py``), PX4 ULog (``ulog.py``), the CSV
+layouts (``formats.py``) and any CSV described by a column map (``csvmap.py``). Units and
+frames are converted at that boundary; the messages are packed with the converter's encoder
+(``encode.py``) and leave as ``(bytes, wall time)`` chunks, exactly like a ``.tlog``
+(:class:`gcs_monitor.link.transports.TlogSource`), so every family sees a log as it would see
+live telemetry through the normal decode path.
+
+Formats are recognised by their content (``detect_log_format``), not only by the extension.
+Anything that cannot be read raises :class:`LogError` with one line that names the file,
+says what is wrong and lists the formats that are read (:data:`KNOWN_FORMATS`). A file that is
+read only in part (cut mid-record) is replayed up to the cut and says so in
+``LogInfo.warnings``.
+
+``gcs_monitor.link.logs.open_log`` is the function other commands (``replay``, ``report``,
+``calibrate``) call: it gives any of these logs as a byte source.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from gcs_monitor.convert.formats import ConvertError
+
+MAV1_MAGIC = 0xFE
+MAV2_MAGIC = 0xFD
+
+KNOWN_FORMATS = (
+    "a MAVLink telemetry log (.tlog), an ArduPilot DataFlash log (.bin, or text .log), "
+    "a PX4 ULog (.ulg), or a CSV (Zipline, OnSpeed, ALFA, or any CSV with --map COLUMNS.toml)")
+
+# --format names: what each reads
+FORMATS = {
+    "tlog": "MAVLink telemetry log (8-byte µs timestamp + packet)",
+    "dataflash": "ArduPilot DataFlash binary log (.bin)",
+    "dataflash-text": "ArduPilot DataFlash text log (.log)",
+    "ulog": "PX4 ULog (.ulg)",
+    "zipline": "Zipline launch CSV",
+    "onspeed": "OnSpeed / VN-300 SD-card CSV (with header)",
+    "alfa": "ALFA (CMU AirLab) derived CSV",
+    "csvmap": "any CSV described by a TOML column map (--map)",
+}
+
+EXTENSIONS = {"tlog": (".tlog",), "dataflash": (".bin",), "dataflash-text": (".log",),
+              "ulog": (".ulg",), "zipline": (".csv",), "onspeed": (".csv",), "alfa": (".csv",),
+              "csvmap": (".csv", ".txt", ".dat")}
+ULOG_MAGIC = b"ULog\x01\x12\x35"
+DATAFLASH_HEAD = b"\xa3\x95"
+SNIFF_BYTES = 4096
+TLOG_CHECK_RECORDS = 8
+TLOG_MAX_SKEW_US = 366 * 86_400 * 1_000_000  # consecutive tlog stamps never a year apart
+
+
+class LogError(ConvertError):
+    """A file cannot be used: the message is one line for the operator.
+
+    ``partial`` is True when part of the file was read (a cut file): the caller exits non-zero
+    but the part read was used.
+    """
+
+    def __init__(self, message: str, *, partial: bool = False) -> None:
+        super().__init__(message)
+        self.partial = partial
+
+
+def log_error(path: Path, what: str) -> LogError:
+    """``FILE: what; expected KNOWN_FORMATS`` as one line."""
+    return LogError(f"{path}: {what}; expected {KNOWN_FORMATS}")
+
+
+@dataclass
+class LogInfo:
+    """What a log reader found: the format, the vehicle, what it read and what it could not.
+
+    Attributes
+    ----------
+    fmt : format name (a key of :data:`FORMATS`)
+    vehicle : what the log says the vehicle is ("ArduCopter V3.2", "PX4 AUAV_X21", ...)
+    records : log records read per log message / topic name (what the log holds)
+    messages : MAVLink messages produced per type (what the monitor is given)
+    duration_s : vehicle time covered by the messages produced
+    warnings : operator lines about the file (truncation, dropped records, fallbacks)
+    """
+
+    path: Path
+    fmt: str
+    vehicle: str = ""
+    records: dict[str, int] = field(default_factory=dict)
+    messages: dict[str, int] = field(default_factory=dict)
+    t0_us: int | None = None
+    t1_us: int | None = None
+    warnings: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def duration_s(self) -> float:
+        if self.t0_us is None or self.t1_us is None:
+            return 0.0
+        return (self.t1_us - self.t0_us) * 1e-6
+
+
+# A reader yields (vehicle time µs, MAVLink message object) in time order and fills its info.
+Messages = Iterator[tuple[int, Any]]
+
+
+def extension_note(path: Path, fmt: str) -> str | None:
+    """A warning when the file's extension names another format than its content."""
+    suffix = Path(path).suffix.lower()
+    expected = EXTENSIONS.get(fmt, ())
+    if not suffix or suffix in expected:
+        return None
+    return (f"named {suffix} but the content is a {FORMATS.get(fmt, fmt)}: read as that "
+            "(--format forces a format)")
+
+
+# -- format detection ----------------------------------------------------------------------------
+def _looks_like_tlog(head: bytes, size: int) -> bool:
+    """Records line up: 8-byte big-endian µs stamp, MAVLink magic, length-consistent walk."""
+    p = 0
+    last_t: int | None = None
+    n = 0
+    while p + 10 <= len(head) and n < TLOG_CHECK_RECORDS:
+        magic = head[p + 8]
+        if magic == MAV2_MAGIC:
+            length = head[p + 9] + 12 + (13 if p + 10 < len(head) and head[p + 10] & 1 else 0)
+        elif magic == MAV1_MAGIC:
+            length = head[p + 9] + 8
+        else:
+            return False
+        t = int.from_bytes(head[p:p + 8], "big")
+        if last_t is not None and abs(t - last_t) > TLOG_MAX_SKEW_US:
+            return False
+        last_t = t
+        p += 8 + length
+        n += 1
+    return n >= min(TLOG_CHECK_RECORDS, 2) or (n == 1 and p >= size)
+
+
+def _is_text(head: bytes) -> bool:
+    if not head:
+        return False
+    try:
+        head.decode("utf-8")
+    except UnicodeDecodeError:
+        # a cut multi-byte character at the very end of the sniffed block is still text
+        try:
+            head[:-3].decode("utf-8")
+        except UnicodeDecodeError:
+            return False
+    return b"\x00" not in head
+
+
+def detect_log_format(path: Path) -> str:
+    """The format of a flight log from its content (a key of :data:`FORMATS`).
+
+    Raises :class:`LogError` for a missing, empty or unrecognised file.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise LogError(f"{path}: no such file")
+    if path.is_dir():
+        raise LogError(f"{path}: is a folder, not a flight log")
+    size = path.stat().st_size
+    if size == 0:
+        raise log_error(path, "empty file (0 bytes)")
+    with open(path, "rb") as fh:
+        head = fh.read(SNIFF_BYTES)
+    if head.startswith(ULOG_MAGIC):
+        return "ulog"
+    if head.startswith(DATAFLASH_HEAD):
+        return "dataflash"
+    if head[:1] in (bytes([MAV1_MAGIC]), bytes([MAV2_MAGIC])) and not _looks_like_tlog(head,
+                                                                                       size):
+        raise log_error(path, "raw MAVLink bytes without tlog timestamps (record it with "
+                              "`gcs-monitor live --record-tlog`)")
+    if len(head) >= 10 and _looks_like_tlog(head, size):
+        return "tlog"
+    if _is_text(head):
+        text = head.decode("utf-8", errors="replace")
+        first = text.lstrip().split("\n", 1)[0]
+        if first.startswith("FMT,"):
+            return "dataflash-text"
+        if "seconds_since_launch" in first:
+            return "zipline"
+        if "vnAccelFwd" in first:
+            return "onspeed"
+        if "field.linear_acceleration" in first:
+            return "alfa"
+        sample = " ".join(text.split("\n")[:2])[:120]
+        kind = "a CSV with no known header" if "," in first else "a text file"
+        raise log_error(path, f"{kind} (starts {sample!r}; for a CSV give --map COLUMNS.toml)")
+    if path.suffix.lower() in (".bin", ".ulg", ".tlog", ".log"):
+        raise log_error(path, f"not a {path.suffix} file: its first bytes "
+                              f"{head[:8].hex(' ')} match no known log")
+    raise log_error(path, f"unrecognised binary content (first bytes {head[:8].hex(' ')})")
+
+
+def block_means(t_us: Any, values: Any, rate_hz: float | None) -> tuple[Any, Any]:
+    """Average consecutive samples in blocks so the rate stays at or below ``rate_hz``.
+
+    ``t_us`` (n,) int, ``values`` (n, k); returns the block-end times and block means. Blocks
+    hold ``ceil(measured rate / rate_hz)`` samples; nothing changes at or below the rate.
+    """
+    import numpy as np
+
+    n = len(t_us)
+    if rate_hz is None or n < 3:
+        return t_us, values
+    dt_s = float(np.median(np.diff(t_us))) * 1e-6
+    if not dt_s > 0:
+        return t_us, values
+    k = int(math.ceil((1.0 / dt_s) / rate_hz - 1e-9))
+    if k <= 1:
+        return t_us, values
+    m = n // k
+    v = values[:m * k].reshape(m, k, -1).mean(axis=1)
+    return t_us[k - 1:m * k:k], v
+
+
+def read_messages(path: Path, fmt: str | None = None, *, column_map: Path | None = None,
+                  imu_rate_hz: float | None = None) -> tuple[Messages, LogInfo]:
+    """The contract messages of a non-tlog log and its info (readers' common entry).
+
+    ``imu_rate_hz`` caps the IMU rate: higher-rate IMU samples are averaged in blocks (the
+    mean specific force and rate over the block, as an autopilot's downsampled stream);
+    None keeps the reader's default (:data:`gcs_monitor.convert.dataflash.DEFAULT_IMU_RATE_HZ`).
+    """
+    path = Path(path)
+    if column_map is not None:
+        fmt = "csvmap"
+    fmt = fmt or detect_log_format(path)
+    if fmt not in FORMATS:
+        raise LogError(f"unknown format {fmt!r}; expected one of {', '.join(FORMATS)}")
+    if not path.exists():
+        raise LogError(f"{path}: no such file")
+    if path.stat().st_size == 0:
+        raise log_error(path, "empty file (0 bytes)")
+    kw: dict[str, Any] = {} if imu_rate_hz is None else {"imu_rate_hz": imu_rate_hz}
+    if fmt in ("dataflash", "dataflash-text"):
+        from gcs_monitor.convert.dataflash import dataflash_messages
+
+        return dataflash_messages(path, text=fmt == "dataflash-text", **kw)
+    if fmt == "ulog":
+        from gcs_monitor.convert.ulog import ulog_messages
+
+        return ulog_messages(path, **kw)
+    if fmt == "csvmap":
+        if column_map is None:
+            raise LogError(f"{path}: --format csvmap needs --map COLUMNS.toml")
+        from gcs_monitor.convert.csvmap import csvmap_messages
+
+        return csvmap_messages(path, column_map)
+    if fmt in ("zipline", "onspeed", "alfa"):
+        from gcs_monitor.convert.csvmap import flight_messages
+        from gcs_monitor.convert.formats import READERS
+
+        return flight_messages(READERS[fmt](path), path)
+    raise LogError(f"{path}: a {fmt} needs no conversion")
