@@ -25,6 +25,7 @@ from gcs_monitor.evaluation.papers import (
     imu_detection,
     lu2016,
     lu2016_real,
+    robustness,
     wan2018,
     wan2018_real,
 )
@@ -35,7 +36,7 @@ RealDataExperiment = Callable[[Path, int, bool, Path], str]  # ... and the real-
 SIMULATED: tuple[Callable[[], dict[str, Experiment]], ...] = (
     sim_checks.experiments, lu2016.experiments, atmaca2025.experiments,
     imu_detection.experiments, wan2018.experiments, campaign.experiments,
-    chen2020.experiments)
+    robustness.experiments, chen2020.experiments)
 REAL_DATA: tuple[Callable[[], dict[str, RealDataExperiment]], ...] = (
     lu2016_real.real_data_experiments, wan2018_real.real_data_experiments)
 

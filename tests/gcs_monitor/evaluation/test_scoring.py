@@ -6,7 +6,6 @@ import math
 
 import numpy as np
 import pytest
-from gcs_monitor.estimators.imu_ts import FAULT_CHANNELS
 
 from gcs_monitor.core.types import ChannelId
 from gcs_monitor.core.units import DEG2RAD, KT2MPS
