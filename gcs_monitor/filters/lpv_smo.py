@@ -193,12 +193,17 @@ class SmoOutput:
     nu: Vec
 
 
-def smo_init(mats: SmoMatrices, y_p: Vec) -> SmoState:
-    """Start at the measurement (fault assumed zero at start): ``z = [T_s y_p; y_p2]``,
-    ``z_f = y_p2`` (Chen2020 sec. V: a good initial guess keeps ``e_1(0)`` small)."""
+def smo_init(mats: SmoMatrices, y_p: Vec, f0: Vec | None = None) -> SmoState:
+    """Start at the measurement corrected by a fault guess ``f0`` (zero by default):
+    ``z = [T_s y_p - [f0; 0]; y_p2]``, ``z_f = y_p2`` (Chen2020 sec. V: a good initial guess
+    keeps ``e_1(0)`` small; during sliding ``e_f = -e~_1``, so starting the faulty states at
+    ``y_p2 - f0`` starts the fault estimate's error at ``f - f0``)."""
     y = np.asarray(y_p, dtype=np.float64)[list(mats.perm)]
     y2 = y[:mats.q]
-    return SmoState(np.concatenate([y, y2]), y2.copy())
+    x0 = y.copy()
+    if f0 is not None:
+        x0[:mats.q] -= np.asarray(f0, dtype=np.float64)
+    return SmoState(np.concatenate([x0, y2]), y2.copy())
 
 
 def smo_step(s: SmoState, mats: SmoMatrices, y_p: Vec, u: Vec, rho: tuple[float, float],

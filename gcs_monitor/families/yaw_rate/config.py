@@ -57,11 +57,16 @@ class YawRateFamilyConfig:
                         "the path of a design .json (gcs-monitor yaw-design)")
     sensor: str = param("r", "the lateral gyro axis whose faults are reconstructed (r: yaw "
                         "rate, Chen2020; p: roll rate)", choices=SENSORS)
-    warmup_s: float = param(10.0, "fault estimates are judged this long after the observer "
-                            "(re)starts (its model-driven state converges at the slowest "
-                            "eigenvalue of A~_11)", positive=True)
-    max_gap_s: float = param(0.5, "an input missing longer than this restarts the observer",
-                             positive=True)
+    warmup_s: float = param(2.0, "fault estimates are judged this long after the observer "
+                            "first starts (it starts at the measurement: the start-up transient "
+                            "stays below the fault-free level, docs/results.md; 2 s fill the "
+                            "RMS window and the equivalent-injection filter)", positive=True)
+    max_gap_s: float = param(0.5, "an input missing longer than this restarts the observer "
+                             "(explicit Euler cannot step across it)", positive=True)
+    reanchor_s: float = param(5.0, "after a gap up to this long on the same IMU the observer "
+                              "restarts from the measurement corrected by its last fault "
+                              "estimate, which it keeps; after a longer gap or on another IMU, "
+                              "from the raw measurement; neither pauses judging")
     observer: ObserverConfig = section(ObserverConfig, "the observer")
     fdi: ChannelSetConfig = section(lambda: fault_channels(THRESHOLD_DEGPS * DEG2RAD),
                                     "threshold of the reconstructed fault", unit=DEGPS)

@@ -97,6 +97,7 @@ class YawRateEstimator:
         self.stale_s = stale_s
         self._step_us = round(cfg.observer.step_s * US_PER_S)
         self._gap_us = round(cfg.max_gap_s * US_PER_S)
+        self._reanchor_us = round(cfg.reanchor_s * US_PER_S)
         self._tau = cfg.observer.nu_filter_s
         self._channels: dict[int, ChannelId] = {}
         self.reset()
@@ -104,21 +105,24 @@ class YawRateEstimator:
     def reset(self) -> None:
         self._s: SmoState | None = None
         self._last_us: int | None = None
+        self._inst = -1
         self._f_lp = 0.0
+
+    def _fault_vec(self, f: float) -> np.ndarray:
+        return np.array([f])
 
     def due(self, frame: Frame) -> bool:
         """Whether the observer steps on this Frame (every ``step_s``, on the measured time)."""
         last = self._last_us
-        # half a Frame of slack: 100 Hz Frames with 20 ms steps step on every second Frame
-        return last is None or frame.t_us - last >= self._step_us - 2_500
+        # an eighth of a step of slack: 100 Hz Frames with 20 ms steps step on every second
+        # Frame despite jitter
+        return last is None or 8 * (frame.t_us - last) >= 7 * self._step_us
 
     def step(self, frame: Frame) -> Estimate:
         """One observer step on this Frame (the caller checks :meth:`due`)."""
         t = frame.t_us
         inp = lateral_inputs(frame, self.stale_s)
-        if inp.y_p is None or inp.u is None:
-            if self._last_us is not None and t - self._last_us > self._gap_us:
-                self.reset()
+        if inp.y_p is None or inp.u is None:  # the next sample re-anchors over the gap
             return Estimate.unavailable(self.name, t, inp.reason)
         lo, hi = self.eas_range
         if not lo <= inp.eas_mps <= hi:
@@ -127,11 +131,22 @@ class YawRateEstimator:
                 self.name, t, f"EAS {inp.eas_mps:.0f} m/s outside the model's "
                 f"{lo:.0f}-{hi:.0f} m/s")
         reinit = ""
-        if self._s is None or self._last_us is None or t - self._last_us > self._gap_us:
-            reinit = "start" if self._s is None else "input gap"
+        imu = frame.primary_imu
+        inst = imu.instance if imu is not None else 0
+        if self._s is None or self._last_us is None:
+            reinit = "start"  # the only restart the family waits for (warm-up)
             self._s = smo_init(self.mats, inp.y_p)
             self._last_us = t
             self._f_lp = 0.0
+        elif t - self._last_us > self._gap_us or inst != self._inst:
+            # explicit Euler cannot step across a gap: re-anchor at the measurement, keeping
+            # the fault estimate over a short gap of the same gyro (e~_1 starts near 0)
+            keep = inst == self._inst and t - self._last_us <= self._reanchor_us
+            if not keep:
+                self._f_lp = 0.0
+            self._s = smo_init(self.mats, inp.y_p, self._fault_vec(self._f_lp))
+            self._last_us = t
+        self._inst = inst
         dt = (t - self._last_us) / US_PER_S
         self._last_us = t
         s, out = smo_step(self._s, self.mats, inp.y_p, inp.u, (inp.eas_mps, inp.eas_mps ** 2),
@@ -143,8 +158,6 @@ class YawRateEstimator:
             return Estimate(self.name, t, numerics_ok=False)
         a = 1.0 if self._tau <= 0.0 else min(1.0, dt / self._tau)
         self._f_lp += a * (f - self._f_lp)
-        imu = frame.primary_imu
-        inst = imu.instance if imu is not None else 0
         ch = self._channels.get(inst)
         if ch is None:
             ch = self._channels[inst] = ChannelId("gyro", inst, self.cfg.sensor)

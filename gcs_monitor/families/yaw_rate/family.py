@@ -80,19 +80,16 @@ class YawRateFamily:
                                         reason="between observer steps", inputs=self._inputs))
         e = prediction
         if not e.available or not e.numerics_ok:
-            self._start_us = None
             return Verdict(FamilyStatus(name, t, False, reason=e.reason or "numerical failure",
                                         inputs=self._inputs))
         self._inputs = True
         slow = self._slow()
         if slow:
-            self.estimator.reset()
-            self._start_us = None
+            self.estimator.reset()  # starts afresh (and warms up) once the rate is back
             return Verdict(FamilyStatus(name, t, False, reason=slow))
-        if e.reinit or self._start_us is None:
-            # the model-driven state converges from its initial guess (Chen2020 sec. V)
+        if e.reinit:  # a fresh start; re-anchoring over a gap does not pause judging
             self._start_us = t + self._warmup_us
-        judged = t >= self._start_us
+        judged = self._start_us is not None and t >= self._start_us
         verdict = Verdict(FamilyStatus(name, t, judged, reason="" if judged else "warm-up"))
         ((ch, value),) = e.faults.items()
         mon = self._monitor

@@ -114,3 +114,18 @@ def test_two_families_alarming_one_channel_are_both_active() -> None:
     p.step(Frame(t_us=10, imu=[None]), [ev(10, "yaw_rate_smo", AlarmState.CLEARED)])
     active = p.health()["active_alarms"]
     assert [(a["channel"], a["estimator"]) for a in active] == [(str(CH), "imu_ts")]
+
+
+def test_a_short_gap_reanchors_without_losing_the_fault_or_judging() -> None:
+    """1 s without Frames while a 3 deg/s bias is active: the observer restarts from the
+    measurement corrected by its last estimate, so the estimate and the alarm carry on, and
+    judging does not pause (no warm-up after a re-anchoring)."""
+    frames, _ = _frames(8000, bias_from_s=30.0)
+    frames = [f for f in frames if not 60.0 <= f.t_us * 1e-6 < 61.0]
+    p, events, outs = _run(frames)
+    assert [e.state for e in events if e.channel == CH] == [AlarmState.RAISED]
+    after = [o for o, f in zip(outs, frames, strict=True) if 61.0 <= f.t_us * 1e-6 < 62.0]
+    st = [s for o in after for s in o.families]
+    assert all(s.judged for s in st if s.sample)
+    est = [e for o in after for e in o.estimates if e.t_us == o.families[0].t_us]
+    assert all(abs(e.faults[CH] - 3.0 * DEG) < 0.2 * DEG for e in est)
