@@ -19,40 +19,42 @@ Commands and measured tables: docs/results.md, "Yaw-rate family: Chen2020".
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from gcs_monitor.config import MonitorConfig
+from gcs_monitor.core.atmosphere import tas_from_cas
 from gcs_monitor.core.types import ChannelId
 from gcs_monitor.core.units import RAD2DEG
+from gcs_monitor.evaluation.papers.chen2020_design import (
+    DESIGN_DIR,
+    ENVELOPES,
+    closed_loop_bounds,
+    write_design,
+)
 from gcs_monitor.evaluation.report import md_table, pyplot, write_csv
 from gcs_monitor.evaluation.runner import run_parallel
-from gcs_monitor.families.yaw_rate.estimator import EY_CHANNEL
+from gcs_monitor.evaluation.runs import feed_packets
+from gcs_monitor.families.yaw_rate.config import ObserverConfig, YawRateFamilyConfig
+from gcs_monitor.families.yaw_rate.estimator import EY_CHANNEL, YawRateEstimator
 from gcs_monitor.fdi.events import AlarmEvent, AlarmKind, AlarmState
+from gcs_monitor.models.lateral import identify_lateral_model
 from gcs_monitor.monitor import Monitor
-from sim_vehicle.faults.profiles import FaultSpec
-from sim_vehicle.run import RunState, iter_run
+from gcs_monitor.telemetry.frame import Frame, ImuSample
+from sim_vehicle.dynamics.linearise import lateral_lti
+from sim_vehicle.faults.profiles import FaultInjector, FaultSpec
+from sim_vehicle.run import RunState, iter_run, make_simulation
 from sim_vehicle.scenario import Scenario, load_scenario
+from sim_vehicle.sensors.noise import LU2016
 
 CASES = ("chen2020_fault_free", "chen2020_slow_drift", "chen2020_fast_drift", "chen2020_sine")
 FAULT_T0_S = 30.0
-CHUNK_PACKETS = 64
 EST = "yaw_rate_smo"
-
-
-def _feed(mon: Monitor, packets: Iterable[bytes]) -> None:
-    buf: list[bytes] = []
-    for pkt in packets:
-        buf.append(pkt)
-        if len(buf) >= CHUNK_PACKETS:
-            mon.feed(b"".join(buf))
-            buf = []
-    mon.feed(b"".join(buf))
-    mon.finish()
 
 
 @dataclasses.dataclass
@@ -104,7 +106,7 @@ def open_loop_run(sc: Scenario, cfg: MonitorConfig | None = None, *,
     cap = _Capture(sensor)
     rs = RunState()
     mon = Monitor(cfg, on_step=cap)
-    _feed(mon, (pkt for _, _, pkt in iter_run(sc, run_state=rs)))
+    feed_packets(mon, (pkt for _, _, pkt in iter_run(sc, run_state=rs)))
     a = np.array(cap.rows) if cap.rows else np.zeros((0, 3))
     log = rs.suite.fault_log.get(f"imu0.gyro.{sensor}") if rs.suite is not None else None
     ft = np.array(log[0]) if log else np.zeros(0)
@@ -137,10 +139,6 @@ class LateralGyroInTheLoop:
 
     def __init__(self, faults: tuple[FaultSpec, ...], seed: int, *, corrected: bool,
                  sensor: str = "r", design: str = "transport") -> None:
-        from gcs_monitor.families.yaw_rate.config import YawRateFamilyConfig
-        from gcs_monitor.families.yaw_rate.estimator import YawRateEstimator
-        from sim_vehicle.faults.profiles import FaultInjector
-        from sim_vehicle.sensors.noise import LU2016
 
         self.inj = FaultInjector(tuple(faults), seed)
         self.channel = f"imu0.gyro.{sensor}"
@@ -154,7 +152,6 @@ class LateralGyroInTheLoop:
         self.rows: list[tuple[float, float, float, float]] = []  # t, f_hat, f, ||e_y||
 
     def __call__(self, st: Any) -> Any:
-        from gcs_monitor.telemetry.frame import Frame, ImuSample
 
         n = self.noise
         w = np.array(st.omega_frd_radps, dtype=np.float64)
@@ -185,7 +182,6 @@ class LateralGyroInTheLoop:
 def ftc_run(sc: Scenario, mode: str, *, sensor: str = "r") -> dict[str, np.ndarray]:
     """Fly ``sc`` closed loop in ``mode`` (:data:`FTC_MODES`): true roll and sideslip with their
     commands per step, and the observer's fault estimate (corrected mode)."""
-    from sim_vehicle.run import make_simulation
 
     faults = sc.faults if mode != "fault-free" else ()
     hook = LateralGyroInTheLoop(faults, sc.seed, corrected=mode == "corrected", sensor=sensor)
@@ -232,14 +228,7 @@ def _rms(x: np.ndarray) -> float:
 def chen2020_design(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
     """LPV fit of the simulator's lateral dynamics (eq. 59) and the LMI design of L_1 with its
     L2-gain bound, per airframe and gyro axis; compared with the shipped design files."""
-    import json
 
-    from gcs_monitor.evaluation.papers.chen2020_design import (
-        DESIGN_DIR,
-        ENVELOPES,
-        closed_loop_bounds,
-        write_design,
-    )
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -482,7 +471,7 @@ def _identify_job(job: tuple[str, str, int]) -> list[Any]:
     cfg = MonitorConfig()
     for fam in ("imu", "airdata", "yaw_rate"):
         cfg = cfg.with_family(fam, enabled=False)
-    _feed(Monitor(cfg, on_step=cap), (pkt for _, _, pkt in iter_run(sc)))
+    feed_packets(Monitor(cfg, on_step=cap), (pkt for _, _, pkt in iter_run(sc)))
     return cap.frames
 
 
@@ -491,8 +480,6 @@ def chen2020_identify(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
     give it on a real aircraft): fault-free S-turn and aileron / rudder doublets of the
     transport in sigma 1 m/s turbulence, Frames from MAVLink; fit error and the identified
     matrices against the simulator's linearisation at the flown speed."""
-    from gcs_monitor.models.lateral import identify_lateral_model
-    from sim_vehicle.dynamics.linearise import lateral_lti
 
     flights = [("s_turn", "aileron", 201), ("doublet_3211", "aileron", 202),
                ("doublet_3211", "rudder", 203)]
@@ -501,7 +488,6 @@ def chen2020_identify(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
     model, err = identify_lateral_model(frames)
     v = 0.5 * sum(model.eas_range_mps)
     sc = case("chen2020_fault_free")
-    from gcs_monitor.core.atmosphere import tas_from_cas
 
     lti = lateral_lti("transport", tas_from_cas(v, sc.initial.alt_m), sc.initial.alt_m)
     A, B, c = model.matrices(v)
@@ -527,9 +513,6 @@ def _replay_observer(frames: list[Any], k: float, tau_s: float, fault: Callable[
                      design: str = "transport") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The family's estimator alone over recorded Frames, with ``fault(t)`` added to the
     yaw-rate gyro: (t, f_hat, f)."""
-    from gcs_monitor.families.yaw_rate.config import ObserverConfig, YawRateFamilyConfig
-    from gcs_monitor.families.yaw_rate.estimator import YawRateEstimator
-    from gcs_monitor.telemetry.frame import ImuSample
 
     cfg = YawRateFamilyConfig(design=design, observer=ObserverConfig(modulation=k,
                                                                       nu_filter_s=tau_s))
@@ -605,7 +588,7 @@ def _tuning_frames(sigma: float) -> list[Any]:
     cfg = MonitorConfig()
     for fam in ("imu", "airdata", "yaw_rate"):
         cfg = cfg.with_family(fam, enabled=False)
-    _feed(Monitor(cfg, on_step=cap), (pkt for _, _, pkt in iter_run(sc)))
+    feed_packets(Monitor(cfg, on_step=cap), (pkt for _, _, pkt in iter_run(sc)))
     return cap.frames
 
 

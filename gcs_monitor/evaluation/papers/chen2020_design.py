@@ -23,8 +23,9 @@ import numpy as np
 
 from gcs_monitor.families.yaw_rate.design import ObserverDesign
 from gcs_monitor.filters.lpv_smo import SmoDesign
-from gcs_monitor.filters.lpv_smo_design import a11_margin, design_l1
+from gcs_monitor.filters.lpv_smo_design import ClosedLoopBlock, a11_margin, design_l1
 from gcs_monitor.models.lateral import STATES, LateralLpv, LpvFitError
+from sim_vehicle.dynamics.linearise import lateral_closed_loop, lateral_lpv, lateral_lti
 
 DESIGN_DIR = Path(__file__).resolve().parents[2] / "families" / "yaw_rate" / "designs"
 
@@ -95,7 +96,6 @@ def fit_summary(err: LpvFitError) -> dict[str, Any]:
 def make_design(airframe: str, p: DesignParams | None = None) -> tuple[ObserverDesign,
                                                                         LpvFitError]:
     """Linearise, fit and design for a simulated airframe."""
-    from sim_vehicle.dynamics.linearise import lateral_lpv
 
     p = p or DesignParams()
     env = ENVELOPES[airframe]
@@ -127,8 +127,6 @@ def closed_loop_bounds(airframe: str, design: ObserverDesign, *, n_points: int =
     on dynamic pressure, not affine in rho: a common P over the grid). Rows: uncertainty
     distribution, L_1 (the shipped one, or designed jointly under a bound), gamma, c_1 = 1/gamma.
     """
-    from gcs_monitor.filters.lpv_smo_design import ClosedLoopBlock
-    from sim_vehicle.dynamics.linearise import lateral_closed_loop, lateral_lti
 
     env = ENVELOPES[airframe]
     ltis = [lateral_lti(airframe, v, env.alt_m)
