@@ -21,10 +21,14 @@ from typing import Any
 
 import numpy as np
 
-from gcs_monitor.families.yaw_rate.design import ObserverDesign
-from gcs_monitor.filters.lpv_smo import SmoDesign
-from gcs_monitor.filters.lpv_smo_design import ClosedLoopBlock, a11_margin, design_l1
-from gcs_monitor.models.lateral import STATES, LateralLpv, LpvFitError
+from gcs_monitor.families.yaw_rate.design import (
+    DesignParams,
+    ObserverDesign,
+    design_sensors,
+    uncertainty_matrix,
+)
+from gcs_monitor.filters.lpv_smo_design import ClosedLoopBlock, design_l1
+from gcs_monitor.models.lateral import STATES, LpvFitError
 from sim_vehicle.dynamics.linearise import lateral_closed_loop, lateral_lpv, lateral_lti
 
 DESIGN_DIR = Path(__file__).resolve().parents[2] / "families" / "yaw_rate" / "designs"
@@ -45,49 +49,6 @@ ENVELOPES = {"transport": Envelope((85.0, 185.0), 1500.0),
              "uav": Envelope((18.0, 35.0), 1000.0)}
 
 
-@dataclass(frozen=True, slots=True)
-class DesignParams:
-    """The design values (Chen2020 sec. V where it gives them)."""
-
-    A_f: float = 0.01  # Chen2020 sec. V
-    k2: float = 0.1  # Chen2020 sec. V
-    k: float = 0.8  # Chen2020 sec. V (flown; 1.2 was the open-loop optimum of Fig. 2)
-    delta: float = 0.01  # Chen2020 sec. V, sigmoid smoothing
-    # ours: uncertainty channels beta, p, r with weights (Chen2020 eq. 60: p, r only)
-    xi_weights: tuple[float, float, float, float] = (0.0, 10.0, 1.0, 1.0)
-    l1_max: float = 0.3  # ours: bound on ||L_1|| (noise through G_n = [-L; I])
-
-
-def uncertainty_matrix(weights: tuple[float, ...]) -> np.ndarray:
-    """``M_p`` with one column per weighted state channel (Chen2020 eq. 60 is weights
-    (0, 0, 1, 1))."""
-    cols = [i for i, w in enumerate(weights) if w > 0.0]
-    M = np.zeros((len(STATES), len(cols)))
-    for j, i in enumerate(cols):
-        M[i, j] = weights[i]
-    return M
-
-
-def design_sensors(model: LateralLpv, p: DesignParams,
-                   sensors: tuple[str, ...] = ("r", "p")) -> tuple[dict[str, SmoDesign],
-                                                                   dict[str, Any]]:
-    """The LMI design of every sensor's observer on ``model``'s vertices."""
-    verts = [model.at_rho(*r)[0] for r in model.vertices()]
-    Mp = uncertainty_matrix(p.xi_weights)
-    A_f = np.array([[p.A_f]])
-    out: dict[str, SmoDesign] = {}
-    info: dict[str, Any] = {}
-    for s in sensors:
-        faulty = (STATES.index(s),)
-        res = design_l1(verts, faulty, A_f, Mp, l1_max=p.l1_max)
-        if not np.all(np.isfinite(res.L1)):
-            raise RuntimeError(f"LMI design for sensor {s} failed: {res.status}")
-        out[s] = SmoDesign(faulty, A_f, p.k2, res.L1, p.k, p.delta, res.gamma)
-        info[s] = {"gamma": res.gamma, "status": res.status, "solver": res.solver,
-                   "a11_margin_radps": max(a11_margin(v, faulty, A_f, res.L1) for v in verts)}
-    return out, info
-
-
 def fit_summary(err: LpvFitError) -> dict[str, Any]:
     return {"rel_A": err.rel_A, "rel_B": err.rel_B, "eig_max_radps": err.eig_max_rad_s,
             "nrmse": err.nrmse.tolist(), "n_points": err.n_points}
@@ -96,7 +57,6 @@ def fit_summary(err: LpvFitError) -> dict[str, Any]:
 def make_design(airframe: str, p: DesignParams | None = None) -> tuple[ObserverDesign,
                                                                         LpvFitError]:
     """Linearise, fit and design for a simulated airframe."""
-
     p = p or DesignParams()
     env = ENVELOPES[airframe]
     speeds = tuple(np.linspace(env.tas_mps[0], env.tas_mps[1], env.n_points).tolist())

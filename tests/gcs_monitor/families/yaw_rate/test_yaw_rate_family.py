@@ -4,6 +4,7 @@ outside the model, the alarm and the corrected gyro on a yaw-rate bias (linear-m
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -129,3 +130,27 @@ def test_a_short_gap_reanchors_without_losing_the_fault_or_judging() -> None:
     assert all(s.judged for s in st if s.sample)
     est = [e for o in after for e in o.estimates if e.t_us == o.families[0].t_us]
     assert all(abs(e.faults[CH] - 3.0 * DEG) < 0.2 * DEG for e in est)
+
+
+def test_a_design_from_a_model_round_trips_to_the_family(tmp_path: Path) -> None:
+    """What calibrate would do with an identified model: design, write, load, run."""
+    import json
+
+    from gcs_monitor.families.yaw_rate.design import design_observer, load_design
+
+    model = load_design("transport").model
+    d = design_observer(model, command="test")
+    path = tmp_path / "mine.json"
+    path.write_text(json.dumps(d.to_dict()))
+    back = load_design(str(path))
+    for s in ("r", "p"):
+        np.testing.assert_allclose(back.sensors[s].L1, d.sensors[s].L1)
+        assert back.sensors[s].gamma == d.sensors[s].gamma > 0.0
+    # the shipped transport design is this design of the shipped model (same LMI, same data)
+    np.testing.assert_allclose(back.sensors["r"].L1, load_design("transport").sensors["r"].L1,
+                               rtol=1e-6, atol=1e-9)
+    cfg = YawRateFamilyConfig(design=str(path))
+    frames, _ = _frames(3000, bias_from_s=15.0)
+    fam = YawRateFamily(cfg, FamilyContext(vehicle=1, stale_after_s=0.5))
+    events = [e for o in (VehiclePipeline(1, [fam]).step(f) for f in frames) for e in o.events]
+    assert [e.channel for e in events if e.state is AlarmState.RAISED] == [CH]
