@@ -73,7 +73,8 @@ class OpenLoopRun:
     def truth_at(self, t: np.ndarray) -> np.ndarray:
         if self.f_true_t.size == 0:
             return np.zeros_like(t)
-        return np.interp(t, self.f_true_t, self.f_true, left=0.0, right=float(self.f_true[-1]))
+        return np.asarray(np.interp(t, self.f_true_t, self.f_true, left=0.0,
+                                    right=float(self.f_true[-1])), dtype=np.float64)
 
 
 class _Capture:
