@@ -481,7 +481,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         from gcs_monitor.evaluation.campaign import run_campaign
 
         res = run_campaign(args.preset_set, args.runs, args.jobs, args.out, seed=args.seed,
-                           config=load_config(args.config) if args.config else None)
+                           config=load_config(args.config) if args.config else None,
+                           declare_weather=args.weather == "declared")
         print(res.markdown)
         return 0
     experiments = registry.experiments(args.data_dir)
@@ -584,6 +585,10 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--out", type=Path, default=Path("eval_out"),
                    help="folder for tables, CSVs and plots (default eval_out)")
     s.add_argument("--config", type=Path, help="monitor TOML for --preset-set campaigns")
+    s.add_argument("--weather", choices=("declared", "estimated"), default="declared",
+                   help="--preset-set campaigns: give each run its scenario's weather as a "
+                   "forecast (declared, default), or none: the monitor estimates it from the "
+                   "flight (estimated)")
     s.add_argument("--data-dir", type=Path, help="real flight data for the real-data experiments "
                    "(default: $GCS_DATA_DIR, else ../shared/data/real beside the repository)")
     s.set_defaults(func=cmd_evaluate)

@@ -18,6 +18,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import re
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -25,16 +26,26 @@ from typing import Any
 
 from gcs_monitor.config import MonitorConfig
 from gcs_monitor.core.types import ChannelId
+from gcs_monitor.evaluation import scenarios
+from gcs_monitor.evaluation.campaign import run_records
 from gcs_monitor.evaluation.configs import with_declared_weather
-from gcs_monitor.evaluation.report import md_table, write_csv
+from gcs_monitor.evaluation.records import METHOD_MEDIAN, METHOD_MONITOR
+from gcs_monitor.evaluation.report import METHOD_LABEL, fmt_fixed, md_table, write_csv
 from gcs_monitor.evaluation.runner import run_parallel
 from gcs_monitor.evaluation.runs import feed_packets
-from gcs_monitor.evaluation.scenarios import preset
+from gcs_monitor.evaluation.scenarios import (
+    CAMPAIGN_SEED,
+    FULL_DURATION_S,
+    campaign_scenarios,
+    preset,
+)
+from gcs_monitor.evaluation.scoring import tables_of
 from gcs_monitor.fdi.events import AlarmEvent, AlarmKind, AlarmState
+from gcs_monitor.fdi.metrics import MetricsRow
 from gcs_monitor.fdi.records import StepOutput
 from gcs_monitor.monitor import Monitor
 from sim_vehicle.run import iter_run
-from sim_vehicle.scenario import Scenario
+from sim_vehicle.scenario import Scenario, list_presets
 
 IMU_HZ = (10.0, 25.0, 50.0, 100.0, 200.0)
 AIR_HZ = (5.0, 10.0, 20.0, 50.0)
@@ -179,8 +190,11 @@ def rate_sweep(out: Path, jobs: int = 2, quick: bool = False) -> str:
 # weather the monitor was not told about
 # ------------------------------------------------------------------------------------------------
 
-WEATHER_PRESETS = ("lu2016_calm", "lu2016_shear", "lu2016_turbulence", "lu2016_parabolic",
-                   "atmaca2025_acc", "atmaca2025_gyro", "demo_airdata_faults")
+def weather_presets() -> list[str]:
+    """Every preset of the simulator (Lu2016, Atmaca2025, the demo, and the actuator and
+    yaw-rate families' presets): none of them may raise an air-data alarm on a channel it
+    does not fault."""
+    return [n for n, _ in list_presets()]
 
 
 def _weather_job(job: tuple[str, bool]) -> RunOutcome:
@@ -195,7 +209,8 @@ def _weather_job(job: tuple[str, bool]) -> RunOutcome:
 def presets_without_declared_weather(out: Path, jobs: int = 2, quick: bool = False) -> str:
     """Every Lu2016 and Atmaca2025 preset (and the demo) with the defaults and no declared
     weather: the air-data family raises nothing on these IMU-fault flights."""
-    names = WEATHER_PRESETS[:3] if quick else WEATHER_PRESETS
+    names = weather_presets()
+    names = [n for n in names if n.startswith("lu2016")][:3] if quick else names
     job_list = [(n, d) for n in names for d in (False, True)]
     res = run_parallel(_weather_job, job_list, jobs, desc="presets")
     header = ["preset", "weather", "air-data false alarms", "all false alarms",
@@ -210,6 +225,70 @@ def presets_without_declared_weather(out: Path, jobs: int = 2, quick: bool = Fal
             "alarm.\n\n" + md_table(header, rows))
 
 
+# ------------------------------------------------------------------------------------------------
+# the campaigns without a forecast
+# ------------------------------------------------------------------------------------------------
+
+
+def weather_campaign_markdown(title: str, tables: dict[str, dict[str, list[MetricsRow]]],
+                              n_runs: int, wall_s: float, jobs: int, command: str) -> str:
+    """Table IV rows of the monitor and the median vote, declared against estimated weather."""
+    rows = []
+    for weather, tab in tables.items():
+        for m in (METHOD_MONITOR, METHOD_MEDIAN):
+            for r in tab.get(m, []):
+                rows.append([weather, METHOD_LABEL.get(m, m), r.group, r.n_fault_free,
+                             r.n_faulty, fmt_fixed(r.far_pct), fmt_fixed(r.mdr_pct),
+                             fmt_fixed(r.fir_pct), fmt_fixed(r.delay_max_s),
+                             fmt_fixed(r.delay_mean_s)])
+    return (f"{title}: {n_runs} runs, default configuration, each run twice (its weather "
+            f"declared as a forecast, and none declared: estimated from the flight); wall "
+            f"{wall_s:.0f} s with {jobs} job(s). `{command}`\n\n"
+            + md_table(["weather", "method", "group", "fault-free runs", "faulty runs",
+                        "FAR [%]", "MDR [%]", "FIR [%]", "DetD max [s]", "DetD mean [s]"],
+                       rows))
+
+
+def _weather_campaign(title: str, scs: Sequence[Scenario], out: Path, jobs: int,
+                      command: str) -> str:
+    t0 = time.perf_counter()
+    cfg = MonitorConfig()
+    tables: dict[str, dict[str, list[MetricsRow]]] = {}
+    for label, declare in (("declared", True), ("estimated", False)):
+        recs = run_records(scs, cfg, jobs, desc=f"{title} ({label})", declare_weather=declare)
+        tables[label] = tables_of(recs)
+        header = ["run", "scenario", "faulty", "monitor alarms", "median alarms"]
+        write_csv(out / f"runs_{label}.csv", header,
+                  [[r.index, r.name, r.faulty, r.raised.get(METHOD_MONITOR, 0),
+                    r.raised.get(METHOD_MEDIAN, 0)] for r in recs])
+    md = weather_campaign_markdown(title, tables, len(scs), time.perf_counter() - t0, jobs,
+                                   command)
+    (out / "weather_campaign.md").write_text(md + "\n")
+    return md
+
+
+def wan2018_campaign_weather(out: Path, jobs: int = 2, quick: bool = False) -> str:
+    """The 249-run Wan2018 campaign (``wan2018_campaign``'s runs) with the default
+    configuration, weather declared against none declared: Table IV side by side."""
+    n, dur = (12, (40.0, 60.0)) if quick else (249, FULL_DURATION_S)
+    out.mkdir(parents=True, exist_ok=True)
+    return _weather_campaign("Wan2018 campaign", campaign_scenarios(n, CAMPAIGN_SEED, dur),
+                             out, jobs, "gcs-monitor evaluate --experiment "
+                             f"wan2018_campaign_weather{' --quick' if quick else ''}")
+
+
+def triplex_weather(out: Path, jobs: int = 2, quick: bool = False) -> str:
+    """The 100-run triplex campaign (seed 0) with the default configuration, weather declared
+    against none declared: Table IV side by side."""
+    n = 12 if quick else 100
+    out.mkdir(parents=True, exist_ok=True)
+    return _weather_campaign("Triplex campaign", scenarios.preset_set("triplex", n, 0), out,
+                             jobs, "gcs-monitor evaluate --experiment triplex_weather"
+                             f"{' --quick' if quick else ''}")
+
+
 def experiments() -> dict[str, Callable[[Path, int, bool], str]]:
     return {"rate_sweep": rate_sweep,
-            "presets_weather": presets_without_declared_weather}
+            "presets_weather": presets_without_declared_weather,
+            "wan2018_campaign_weather": wan2018_campaign_weather,
+            "triplex_weather": triplex_weather}
