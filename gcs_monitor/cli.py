@@ -502,6 +502,18 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_yaw_design(args: argparse.Namespace) -> int:
+    from gcs_monitor.evaluation.papers.chen2020_design import write_design
+
+    for airframe in args.airframe or ["transport", "uav"]:
+        path, d = write_design(airframe, args.out)
+        bounds = ", ".join(f"{s}: {v.gamma:.4g}" for s, v in d.sensors.items())
+        fit = d.meta["fit"]
+        print(f"{airframe}: {path} (LPV fit: A rel. error {fit['rel_A']:.3g}, B "
+              f"{fit['rel_B']:.3g}; L2-gain bounds {bounds})")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="gcs-monitor", description=__doc__)
     p.add_argument("-v", "--verbose", action="store_true")
@@ -581,6 +593,12 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--data-dir", type=Path, help="real flight data for the real-data experiments "
                    "(default: $GCS_DATA_DIR, else ../shared/data/real beside the repository)")
     s.set_defaults(func=cmd_evaluate)
+    s = sub.add_parser("yaw-design", help="Chen2020 observer design of a simulated airframe: "
+                                          "LPV fit and LMI gains (the yaw_rate family's data)")
+    s.add_argument("--airframe", action="append", choices=["transport", "uav"],
+                   help="airframe (repeatable; default both)")
+    s.add_argument("--out", type=Path, help="file or folder (default: the shipped designs)")
+    s.set_defaults(func=cmd_yaw_design, airframe=None)
     s = sub.add_parser("convert",
                        help="convert flight logs (ArduPilot .bin/.log, PX4 .ulg, CSV) to the "
                             "contract .tlog")

@@ -21,6 +21,7 @@ from gcs_monitor.evaluation import campaign, sim_checks
 from gcs_monitor.evaluation.data import real_data_dir
 from gcs_monitor.evaluation.papers import (
     atmaca2025,
+    chen2020,
     imu_detection,
     lu2016,
     lu2016_real,
@@ -37,7 +38,7 @@ RealDataExperiment = Callable[[Path, int, bool, Path], str]  # ... and the real-
 SIMULATED: tuple[Callable[[], dict[str, Experiment]], ...] = (
     sim_checks.experiments, lu2016.experiments, atmaca2025.experiments,
     imu_detection.experiments, wan2018.experiments, campaign.experiments,
-    robustness.experiments, lu2017.experiments)
+    robustness.experiments, lu2017.experiments, chen2020.experiments)
 REAL_DATA: tuple[Callable[[], dict[str, RealDataExperiment]], ...] = (
     lu2016_real.real_data_experiments, wan2018_real.real_data_experiments,
     real_flights.real_data_experiments)

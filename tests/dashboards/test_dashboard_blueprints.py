@@ -40,7 +40,7 @@ def test_family_views_and_origins() -> None:
     assert all(isinstance(v, rrb.TimeSeriesView) for v in air)
     imu = _views(family_tab(5, imu_views(ImuFamilyConfig())))
     assert len(imu) == 6 and {v.origin for v in imu} == {"/5/channels/acc", "/5/channels/gyro"}
-    assert len(_views(overview(5, family_views()))) == 5  # 4 family plots + coverage
+    assert len(_views(overview(5, family_views()))) == 6  # 5 family plots + coverage
     assert isinstance(alarms_view(5), rrb.TextLogView) and alarms_view(5).origin == "/5/alarms"
     assert isinstance(attitude_view(5), rrb.Spatial3DView) and attitude_view(5).origin == "/5/world"
 
