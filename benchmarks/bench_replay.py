@@ -165,7 +165,7 @@ def main() -> None:
     ap.add_argument("--cache", type=Path, default=Path(tempfile.gettempdir()) / "gcs_bench_replay")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--only", action="append",
-                    choices=["decode", "assemble", "fdi", "full", "bound"])
+                    choices=["decode", "assemble", "fdi", "full", "full_no_yaw", "bound"])
     args = ap.parse_args()
     args.cache.mkdir(parents=True, exist_ok=True)
     path = flight_tlog(args.cache, args.duration)
@@ -174,13 +174,16 @@ def main() -> None:
     t_read = time.perf_counter() - t0
     n_bytes = sum(len(c) for c, _ in chunks)
     base = MonitorConfig()
-    fdi_only = base.with_family("imu", enabled=False).with_family("airdata", estimator="none")
+    fdi_only = (base.with_family("imu", enabled=False).with_family("airdata", estimator="none")
+                .with_family("yaw_rate", enabled=False))
     stages: list[tuple[str, str, Callable[[list[tuple[bytes, float]]], int]]] = [
         ("decode", "decode only (Decoder.feed)", stage_decode),
         ("assemble", "decode + FrameAssembler", stage_assemble),
         ("fdi", "Monitor: FDI on all redundant sets, estimators off", stage_monitor(fdi_only)),
-        ("full", "Monitor: default families (imu: imu_ts; airdata: cmhe) + FDI",
+        ("full", "Monitor: default families (imu: imu_ts; airdata: cmhe; yaw_rate) + FDI",
          stage_monitor(base)),
+        ("full_no_yaw", "Monitor: default families without yaw_rate",
+         stage_monitor(base.with_family("yaw_rate", enabled=False))),
         ("bound", "bound: struct/crc_hqx framing of the monitored ids (not the monitor)",
          stage_framing_bound),
     ]

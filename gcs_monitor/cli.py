@@ -262,7 +262,7 @@ def _batch_end(failures: list[tuple[Path, str]], partial: list[Path], n: int) ->
 
 
 def _no_vehicle(path: Path, fmt: str) -> str:
-    from gcs_monitor.convert.logs import KNOWN_FORMATS
+    from gcs_monitor.convert.logbase import KNOWN_FORMATS
 
     return (f"{path}: no vehicle telemetry the monitor can use in this {fmt} (no vehicle "
             f"sent IMU messages); expected {KNOWN_FORMATS}")
@@ -274,7 +274,7 @@ def replay_one(path: Path, args: argparse.Namespace, *, several: bool = False,
     """Replay one log: (monitor, LogInfo). Raises LogError when the file cannot be used."""
     from tqdm import tqdm
 
-    from gcs_monitor.convert.logs import LogError
+    from gcs_monitor.convert.logbase import LogError
 
     bar = tqdm(total=100, unit="%", desc=path.name,
                disable=args.quiet or not sys.stderr.isatty())
@@ -308,7 +308,7 @@ def _tlog_counts(monitor: Any) -> dict[str, int]:
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
-    from gcs_monitor.convert.logs import LogError
+    from gcs_monitor.convert.logbase import LogError
 
     failures: list[tuple[Path, str]] = []
     partial: list[Path] = []
@@ -358,7 +358,8 @@ class _NoTruth:
 
 def cmd_convert(args: argparse.Namespace) -> int:
     from gcs_monitor.convert.formats import ConvertError
-    from gcs_monitor.convert.logs import LogError, detect_log_format
+    from gcs_monitor.convert.logbase import LogError
+    from gcs_monitor.convert.logs import detect_log_format
     from gcs_monitor.convert.writer import convert_file, lu2016_table2_injector
 
     args.out.mkdir(parents=True, exist_ok=True)
@@ -407,7 +408,7 @@ def _write_log_tlog(path: Path, out: Path, args: argparse.Namespace, fmt: str) -
 
     if fmt == "tlog":
         shutil.copyfile(path, out)
-        from gcs_monitor.convert.logs import LogInfo
+        from gcs_monitor.convert.logbase import LogInfo
 
         return LogInfo(path=path, fmt="tlog")
     opened = open_log(path, fmt, column_map=args.map, imu_rate_hz=args.imu_rate_hz)
@@ -433,7 +434,7 @@ def _tlog_records(src: Any, fh: Any, header: Any) -> None:
 
 
 def cmd_report(args: argparse.Namespace) -> int:
-    from gcs_monitor.convert.logs import LogError
+    from gcs_monitor.convert.logbase import LogError
     from gcs_monitor.report import write_report
 
     failures: list[tuple[Path, str]] = []
@@ -501,7 +502,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         from gcs_monitor.evaluation.campaign import run_campaign
 
         res = run_campaign(args.preset_set, args.runs, args.jobs, args.out, seed=args.seed,
-                           config=load_config(args.config) if args.config else None)
+                           config=load_config(args.config) if args.config else None,
+                           declare_weather=args.weather == "declared")
         print(res.markdown)
         return 0
     experiments = registry.experiments(args.data_dir)
@@ -517,6 +519,18 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
               f"experiments: {names}", file=sys.stderr)
         return 2
     print(experiments[args.experiment](args.out, args.jobs, args.quick))
+    return 0
+
+
+def cmd_yaw_design(args: argparse.Namespace) -> int:
+    from gcs_monitor.evaluation.papers.chen2020_design import write_design
+
+    for airframe in args.airframe or ["transport", "uav"]:
+        path, d = write_design(airframe, args.out)
+        bounds = ", ".join(f"{s}: {v.gamma:.4g}" for s, v in d.sensors.items())
+        fit = d.meta["fit"]
+        print(f"{airframe}: {path} (LPV fit: A rel. error {fit['rel_A']:.3g}, B "
+              f"{fit['rel_B']:.3g}; L2-gain bounds {bounds})")
     return 0
 
 
@@ -595,9 +609,19 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--out", type=Path, default=Path("eval_out"),
                    help="folder for tables, CSVs and plots (default eval_out)")
     s.add_argument("--config", type=Path, help="monitor TOML for --preset-set campaigns")
+    s.add_argument("--weather", choices=("declared", "estimated"), default="declared",
+                   help="--preset-set campaigns: give each run its scenario's weather as a "
+                   "forecast (declared, default), or none: the monitor estimates it from the "
+                   "flight (estimated)")
     s.add_argument("--data-dir", type=Path, help="real flight data for the real-data experiments "
                    "(default: $GCS_DATA_DIR, else ../shared/data/real beside the repository)")
     s.set_defaults(func=cmd_evaluate)
+    s = sub.add_parser("yaw-design", help="Chen2020 observer design of a simulated airframe: "
+                                          "LPV fit and LMI gains (the yaw_rate family's data)")
+    s.add_argument("--airframe", action="append", choices=["transport", "uav"],
+                   help="airframe (repeatable; default both)")
+    s.add_argument("--out", type=Path, help="file or folder (default: the shipped designs)")
+    s.set_defaults(func=cmd_yaw_design, airframe=None)
     s = sub.add_parser("convert",
                        help="convert flight logs (ArduPilot .bin/.log, PX4 .ulg, CSV) to the "
                             "contract .tlog")

@@ -52,7 +52,9 @@ class VehiclePipeline:
         self.coverage = {f.name: FamilyCoverage(f.name, cov, vehicle=vehicle, alarm=alarm)
                          for f in self.families}
         self.frames = 0
-        self.active: dict[ChannelId, AlarmEvent] = {}
+        # active alarms by (channel, estimator): two families may judge one channel (the IMU
+        # family's imu_ts and the yaw-rate family both reconstruct the yaw-rate gyro's fault)
+        self.active: dict[tuple[ChannelId, str], AlarmEvent] = {}
         # each family's account of its latest sample (Frames without one do not replace it)
         self.status: dict[str, FamilyStatus] = {}
 
@@ -79,9 +81,9 @@ class VehiclePipeline:
                 out.coverage.append(cov.coverage)
         for event in out.events:
             if event.state is AlarmState.CLEARED:
-                self.active.pop(event.channel, None)
+                self.active.pop((event.channel, event.estimator), None)
             else:
-                self.active[event.channel] = event
+                self.active[(event.channel, event.estimator)] = event
         for sink in self.sinks:
             sink.publish(frame, out)
         return out
@@ -91,9 +93,10 @@ class VehiclePipeline:
             "vehicle": self.vehicle,
             "frames": self.frames,
             "active_alarms": [
-                {"channel": str(ch), "kind": ev.kind.value, "fault_type": ev.fault_type.value,
-                 "confidence": ev.confidence, "magnitude": ev.magnitude, "since_t_us": ev.t_us}
-                for ch, ev in sorted(self.active.items())
+                {"channel": str(ch), "estimator": est, "kind": ev.kind.value,
+                 "fault_type": ev.fault_type.value, "confidence": ev.confidence,
+                 "magnitude": ev.magnitude, "since_t_us": ev.t_us}
+                for (ch, est), ev in sorted(self.active.items(), key=lambda kv: kv[0])
             ],
         }
 

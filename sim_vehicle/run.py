@@ -19,6 +19,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
 
+from sim_vehicle.actuators.sensors import SurfaceSensorNoise, SurfaceSensors
 from sim_vehicle.mavlink_out import MavlinkEncoder, TlogWriter, UdpSender
 from sim_vehicle.scenario import Scenario
 from sim_vehicle.sensors.noise import SENSOR_SETS, SensorSet
@@ -149,6 +150,7 @@ def iter_run(
         servo_max_deflection_rad=airframe_max_deflection(sc.airframe),
         home_alt_m=sc.initial.alt_m,
     )
+    surf_sensors = SurfaceSensors(SurfaceSensorNoise(), sc.seed)  # SURF position sensors
     o = sc.output
     hb = _Clock(round(1e6 / o.heartbeat_hz))
     servo = _Clock(round(1e6 / o.servo_output_raw_hz))
@@ -171,7 +173,7 @@ def iter_run(
         if servo.due(t_us):
             out.append(enc.servo_output_raw(t_us, st))
         if surf.due(t_us):
-            out.append(enc.surf(t_us, st))
+            out.append(enc.surf(t_us, surf_sensors.measure(st)))
         if nav.due(t_us):
             out += enc.setpoints(t_us, st)
         if rs.truth is not None and truth_clock.due(t_us):

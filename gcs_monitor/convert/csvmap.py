@@ -38,7 +38,7 @@ import numpy as np
 
 from gcs_monitor.convert import encode as enc
 from gcs_monitor.convert.formats import Flight
-from gcs_monitor.convert.logs import LogError, LogInfo, Messages, log_error
+from gcs_monitor.convert.logbase import LogError, LogInfo, Messages, log_error
 from gcs_monitor.core.atmosphere import isa_temperature_k
 from gcs_monitor.core.units import DEG2RAD, FPM2MPS, FT2M, G2MPS2, HPA2PA, KT2MPS
 from gcs_monitor.link.mav import mavlink

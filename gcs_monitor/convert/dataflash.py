@@ -38,7 +38,7 @@ from typing import Any
 import numpy as np
 
 from gcs_monitor.convert import encode as enc
-from gcs_monitor.convert.logs import LogError, LogInfo, Messages, block_means, log_error
+from gcs_monitor.convert.logbase import LogError, LogInfo, Messages, block_means, log_error
 from gcs_monitor.core.constants import (
     GRAVITY_STD_MPS2,
     ISA_LAPSE_KPM,

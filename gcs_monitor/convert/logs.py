@@ -20,20 +20,17 @@ read only in part (cut mid-record) is replayed up to the cut and says so in
 
 from __future__ import annotations
 
-import math
-from collections.abc import Iterator
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from gcs_monitor.convert.formats import ConvertError
+from gcs_monitor.convert.csvmap import csvmap_messages, flight_messages
+from gcs_monitor.convert.dataflash import dataflash_messages
+from gcs_monitor.convert.formats import READERS
+from gcs_monitor.convert.logbase import LogError, LogInfo, Messages, log_error
+from gcs_monitor.convert.ulog import ulog_messages
 
 MAV1_MAGIC = 0xFE
 MAV2_MAGIC = 0xFD
-
-KNOWN_FORMATS = (
-    "a MAVLink telemetry log (.tlog), an ArduPilot DataFlash log (.bin, or text .log), "
-    "a PX4 ULog (.ulg), or a CSV (Zipline, OnSpeed, ALFA, or any CSV with --map COLUMNS.toml)")
 
 # --format names: what each reads
 FORMATS = {
@@ -55,58 +52,6 @@ DATAFLASH_HEAD = b"\xa3\x95"
 SNIFF_BYTES = 4096
 TLOG_CHECK_RECORDS = 8
 TLOG_MAX_SKEW_US = 366 * 86_400 * 1_000_000  # consecutive tlog stamps never a year apart
-
-
-class LogError(ConvertError):
-    """A file cannot be used: the message is one line for the operator.
-
-    ``partial`` is True when part of the file was read (a cut file): the caller exits non-zero
-    but the part read was used.
-    """
-
-    def __init__(self, message: str, *, partial: bool = False) -> None:
-        super().__init__(message)
-        self.partial = partial
-
-
-def log_error(path: Path, what: str) -> LogError:
-    """``FILE: what; expected KNOWN_FORMATS`` as one line."""
-    return LogError(f"{path}: {what}; expected {KNOWN_FORMATS}")
-
-
-@dataclass
-class LogInfo:
-    """What a log reader found: the format, the vehicle, what it read and what it could not.
-
-    Attributes
-    ----------
-    fmt : format name (a key of :data:`FORMATS`)
-    vehicle : what the log says the vehicle is ("ArduCopter V3.2", "PX4 AUAV_X21", ...)
-    records : log records read per log message / topic name (what the log holds)
-    messages : MAVLink messages produced per type (what the monitor is given)
-    duration_s : vehicle time covered by the messages produced
-    warnings : operator lines about the file (truncation, dropped records, fallbacks)
-    """
-
-    path: Path
-    fmt: str
-    vehicle: str = ""
-    records: dict[str, int] = field(default_factory=dict)
-    messages: dict[str, int] = field(default_factory=dict)
-    t0_us: int | None = None
-    t1_us: int | None = None
-    warnings: list[str] = field(default_factory=list)
-    notes: list[str] = field(default_factory=list)
-
-    @property
-    def duration_s(self) -> float:
-        if self.t0_us is None or self.t1_us is None:
-            return 0.0
-        return (self.t1_us - self.t0_us) * 1e-6
-
-
-# A reader yields (vehicle time µs, MAVLink message object) in time order and fills its info.
-Messages = Iterator[tuple[int, Any]]
 
 
 def extension_note(path: Path, fmt: str) -> str | None:
@@ -201,28 +146,6 @@ def detect_log_format(path: Path) -> str:
     raise log_error(path, f"unrecognised binary content (first bytes {head[:8].hex(' ')})")
 
 
-def block_means(t_us: Any, values: Any, rate_hz: float | None) -> tuple[Any, Any]:
-    """Average consecutive samples in blocks so the rate stays at or below ``rate_hz``.
-
-    ``t_us`` (n,) int, ``values`` (n, k); returns the block-end times and block means. Blocks
-    hold ``ceil(measured rate / rate_hz)`` samples; nothing changes at or below the rate.
-    """
-    import numpy as np
-
-    n = len(t_us)
-    if rate_hz is None or n < 3:
-        return t_us, values
-    dt_s = float(np.median(np.diff(t_us))) * 1e-6
-    if not dt_s > 0:
-        return t_us, values
-    k = int(math.ceil((1.0 / dt_s) / rate_hz - 1e-9))
-    if k <= 1:
-        return t_us, values
-    m = n // k
-    v = values[:m * k].reshape(m, k, -1).mean(axis=1)
-    return t_us[k - 1:m * k:k], v
-
-
 def read_messages(path: Path, fmt: str | None = None, *, column_map: Path | None = None,
                   imu_rate_hz: float | None = None) -> tuple[Messages, LogInfo]:
     """The contract messages of a non-tlog log and its info (readers' common entry).
@@ -243,22 +166,13 @@ def read_messages(path: Path, fmt: str | None = None, *, column_map: Path | None
         raise log_error(path, "empty file (0 bytes)")
     kw: dict[str, Any] = {} if imu_rate_hz is None else {"imu_rate_hz": imu_rate_hz}
     if fmt in ("dataflash", "dataflash-text"):
-        from gcs_monitor.convert.dataflash import dataflash_messages
-
         return dataflash_messages(path, text=fmt == "dataflash-text", **kw)
     if fmt == "ulog":
-        from gcs_monitor.convert.ulog import ulog_messages
-
         return ulog_messages(path, **kw)
     if fmt == "csvmap":
         if column_map is None:
             raise LogError(f"{path}: --format csvmap needs --map COLUMNS.toml")
-        from gcs_monitor.convert.csvmap import csvmap_messages
-
         return csvmap_messages(path, column_map)
     if fmt in ("zipline", "onspeed", "alfa"):
-        from gcs_monitor.convert.csvmap import flight_messages
-        from gcs_monitor.convert.formats import READERS
-
         return flight_messages(READERS[fmt](path), path)
     raise LogError(f"{path}: a {fmt} needs no conversion")

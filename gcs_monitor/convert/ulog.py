@@ -42,7 +42,7 @@ from gcs_monitor.convert.dataflash import (
     DEFAULT_SETPOINT_RATE_HZ,
     decimate,
 )
-from gcs_monitor.convert.logs import LogError, LogInfo, Messages, block_means, log_error
+from gcs_monitor.convert.logbase import LogError, LogInfo, Messages, block_means, log_error
 from gcs_monitor.core.constants import EARTH_RADIUS_M
 from gcs_monitor.core.frames import dcm_from_quat, euler_from_dcm
 from gcs_monitor.core.units import DEG2RAD

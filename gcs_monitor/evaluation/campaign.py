@@ -33,22 +33,26 @@ def _example_index(scs: Sequence[Scenario]) -> int:
     return next((i for i, sc in enumerate(scs) if sc.faults), 0)
 
 
-def _campaign_run(job: tuple[int, Scenario, MonitorConfig, bool]) -> RunRecord:
-    index, sc, cfg, keep = job
-    return run_one(index, sc, cfg, keep_series=keep)
+def _campaign_run(job: tuple[int, Scenario, MonitorConfig, bool, bool]) -> RunRecord:
+    index, sc, cfg, keep, declare = job
+    return run_one(index, sc, cfg, keep_series=keep, declare_weather=declare)
 
 
 def run_records(scs: Sequence[Scenario], cfg: MonitorConfig, jobs: int, *,
-                progress: bool = True, desc: str = "campaign") -> list[RunRecord]:
+                progress: bool = True, desc: str = "campaign",
+                declare_weather: bool = True) -> list[RunRecord]:
     """Run every scenario (``jobs`` worker processes); records in scenario order, the example
-    run (:func:`_example_index`) with its series."""
+    run (:func:`_example_index`) with its series. ``declare_weather`` False gives the monitor
+    no forecast: it keeps ``cfg``'s ``[airdata.weather]`` and estimates the weather from the
+    flight (:mod:`gcs_monitor.families.airdata.weather`)."""
     ex = _example_index(scs)
-    work = [(i, sc, cfg, i == ex) for i, sc in enumerate(scs)]
+    work = [(i, sc, cfg, i == ex, declare_weather) for i, sc in enumerate(scs)]
     return run_parallel(_campaign_run, work, jobs, desc=desc, progress=progress)
 
 
 def run_campaign(preset_set: str, runs: int, jobs: int, out_dir: Path, *, seed: int = 0,
-                 progress: bool = True, config: MonitorConfig | None = None) -> CampaignResult:
+                 progress: bool = True, config: MonitorConfig | None = None,
+                 declare_weather: bool = True) -> CampaignResult:
     """Run ``runs`` scenarios of a preset set through the monitor and the baselines.
 
     Parameters
@@ -61,6 +65,8 @@ def run_campaign(preset_set: str, runs: int, jobs: int, out_dir: Path, *, seed: 
     progress : tqdm progress bar
     config : monitor configuration (default: the :class:`MonitorConfig` defaults without the
         actuator family, which these air-data campaigns do not judge)
+    declare_weather : give each run its scenario's weather as a forecast (``[airdata.weather]``);
+        False: no forecast, the monitor estimates the weather from the flight
 
     Returns
     -------
@@ -71,8 +77,9 @@ def run_campaign(preset_set: str, runs: int, jobs: int, out_dir: Path, *, seed: 
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     records = run_records(scenarios.preset_set(preset_set, runs, seed), cfg, jobs,
-                          progress=progress, desc=preset_set)
+                          progress=progress, desc=preset_set, declare_weather=declare_weather)
     res = CampaignResult(preset_set=preset_set, n_runs=runs, seed=seed, config=cfg,
+                         declare_weather=declare_weather,
                          runs=records, tables=tables_of(records), markdown="", out_dir=out,
                          files=[], wall_s=time.perf_counter() - t0)
     res.markdown, res.files = write_report(res, jobs=jobs)

@@ -190,8 +190,9 @@ def without_actuators(cfg: MonitorConfig) -> MonitorConfig:
 def variant_config(variant: str, base: MonitorConfig | None = None, *,
                    lateral: bool = False, restart_peers: bool = False,
                    equal_pair: bool = False) -> MonitorConfig:
-    """Air-data only (the IMU family off: not part of these experiments), with Wan2018's
-    wings-level model (eqs. 12-15) unless ``lateral`` asks for our bank and sideslip terms,
+    """Air-data only (the IMU and yaw-rate families off: not part of these experiments), with
+    Wan2018's wings-level model (eqs. 12-15) unless ``lateral`` asks for our bank and sideslip
+    terms,
     Wan2018's per-instance windows unless ``restart_peers`` asks for our restart of the
     peers' windows on an isolation, and eq. 19's 1/J^2 weights for the last two instances
     unless ``equal_pair`` asks for our equal weights, whatever the monitor's defaults are:
@@ -199,8 +200,8 @@ def variant_config(variant: str, base: MonitorConfig | None = None, *,
     cfg = _with_sets(base or MonitorConfig(), restart_peers=restart_peers,
                      equal_pair_weights=equal_pair)
     cfg = _with_filter(cfg, lateral_terms=lateral)
-    return cfg.with_family("airdata", estimator=variant).with_family("imu", enabled=False) \
-        .with_family("actuators", enabled=False)
+    return (cfg.with_family("airdata", estimator=variant).with_family("imu", enabled=False)
+            .with_family("yaw_rate", enabled=False).with_family("actuators", enabled=False))
 
 
 def without_wind_accel(cfg: MonitorConfig) -> MonitorConfig:
@@ -311,9 +312,11 @@ def with_imu_noise(imu: ImuFamilyConfig, noise: Lu2016Table1) -> ImuFamilyConfig
 
 def imu_config(imu: ImuFamilyConfig | None = None) -> MonitorConfig:
     """The IMU experiments' monitor: air-data estimation off (not under test here; the AoA/CAS
-    sets still run on set consensus), the IMU family ``imu`` (default: the ``[imu]``
-    defaults, the Lu2016 estimator alone)."""
-    base = without_actuators(MonitorConfig()).with_family("airdata", estimator="none")
+    sets still run on set consensus), the yaw-rate family off (it judges the yaw-rate gyro
+    too, with its own estimator: not these papers'), the actuator family off, the IMU family
+    ``imu`` (default: the ``[imu]`` defaults, the Lu2016 estimator alone)."""
+    base = (without_actuators(MonitorConfig()).with_family("airdata", estimator="none")
+            .with_family("yaw_rate", enabled=False))
     return base if imu is None else base.with_family("imu", imu)
 
 

@@ -100,6 +100,7 @@ class CampaignResult:
     out_dir: Path
     files: list[Path]
     wall_s: float
+    declare_weather: bool = True  # each run's weather given as a forecast; False: estimated
 
     def row(self, method: str, group: str) -> MetricsRow:
         return next(r for r in self.tables[method] if r.group == group)

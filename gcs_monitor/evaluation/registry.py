@@ -23,9 +23,13 @@ from gcs_monitor.evaluation.papers import (
     actuators,
     actuators_alfa,
     atmaca2025,
+    chen2020,
     imu_detection,
     lu2016,
     lu2016_real,
+    lu2017,
+    real_flights,
+    robustness,
     wan2018,
     wan2018_real,
 )
@@ -36,10 +40,11 @@ RealDataExperiment = Callable[[Path, int, bool, Path], str]  # ... and the real-
 SIMULATED: tuple[Callable[[], dict[str, Experiment]], ...] = (
     sim_checks.experiments, lu2016.experiments, atmaca2025.experiments,
     imu_detection.experiments, wan2018.experiments, campaign.experiments,
+    robustness.experiments, lu2017.experiments, chen2020.experiments,
     actuators.experiments)
 REAL_DATA: tuple[Callable[[], dict[str, RealDataExperiment]], ...] = (
     lu2016_real.real_data_experiments, wan2018_real.real_data_experiments,
-    actuators_alfa.real_data_experiments)
+    real_flights.real_data_experiments, actuators_alfa.real_data_experiments)
 
 
 def _on_data(fn: RealDataExperiment, data_dir: Path | None) -> Experiment:

@@ -375,13 +375,17 @@ def write_report(res: CampaignResult, *, jobs: int = 1) -> tuple[str, list[Path]
         f"# Campaign `{res.preset_set}`: {res.n_runs} runs, seed {res.seed}",
         "",
         f"- command: `gcs-monitor evaluate --preset-set {res.preset_set} --runs {res.n_runs} "
-        f"--jobs {jobs} --seed {res.seed} --out {res.out_dir}`"
+        f"--jobs {jobs} --seed {res.seed}"
+        f"{'' if res.declare_weather else ' --weather estimated'} --out {res.out_dir}`"
         + ("" if air.estimator == "cmhe" and imu.enabled and imu.ts.enabled else
            " (with the configuration below)"),
         f"- monitor: {monitor_label(res)}; J_th aoa {air.fdi.aoa.threshold / DEG2RAD:.3g} deg, "
         f"cas {air.fdi.cas.threshold / KT2MPS:.3g} kt, n_D/N_eval {n_d}/{n_eval}; baselines "
         f"use the same J_th on |y_i - median| (median vote: {n_d} consecutive samples, "
         f"latched; fixed threshold: 1 sample)",
+        "- weather: " + ("each run's declared as its forecast (`[airdata.weather]`)"
+                         if res.declare_weather else
+                         "none declared; estimated from the flight (the defaults)"),
         f"- runs: {len(res.runs)} ({n_free} fault-free, {len(res.runs) - n_free} faulty), "
         f"{veh_s:.0f} s of flight; wall {res.wall_s:.0f} s with {jobs} job(s) "
         f"(mean {float(np.mean(run_s)) if run_s else math.nan:.1f} s per run)",

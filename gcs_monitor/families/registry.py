@@ -3,12 +3,13 @@ under ``gcs_monitor/families/`` and one line here."""
 
 from __future__ import annotations
 
-from gcs_monitor.families import actuators, airdata, imu
+from gcs_monitor.families import actuators, airdata, imu, yaw_rate
 from gcs_monitor.families.base import FamilySpec
 
 FAMILIES: tuple[FamilySpec, ...] = (
     imu.SPEC,
     airdata.SPEC,
+    yaw_rate.SPEC,
     actuators.SPEC,
 )
 

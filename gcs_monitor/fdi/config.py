@@ -20,6 +20,8 @@ from gcs_monitor.fdi.confirmation import ConfirmationParams
 from gcs_monitor.fdi.monitor import ChannelMonitorParams, SetMonitorParams
 from gcs_monitor.fdi.residuals import RmsWindowParams
 
+STUCK_MIN_SAMPLES = 4  # SetMonitorParams.stuck_n's least window
+
 
 def samples_in(window_s: float, period_s: float, *, minimum: int = 1) -> int:
     """Samples of a stream of period ``period_s`` in ``window_s`` (at least ``minimum``)."""
@@ -40,6 +42,10 @@ class ChannelSetConfig:
     window_s: float = param(0.5, "residual RMS window and confirmation window N_eval "
                             "(Wan2018 eq. 18: N_eval = 10 samples of 20 Hz air data)",
                             positive=True)
+    min_window_samples: int = param(10, "the window holds at least this many samples (it "
+                                    "grows beyond window_s on a slow stream: an RMS and an "
+                                    "n_D-of-N count over fewer samples are too noisy to judge "
+                                    "with the same J_th; Wan2018's N_eval)", positive=True)
     detect_ratio: float = param(0.5, "n_D / N_eval: share of the window's samples above J_th "
                                 "that confirms a fault (Wan2018 gives no n_D)", positive=True)
     clear_ratio: float = param(0.5, "clear level as a fraction of J_th (hysteresis)",
@@ -98,11 +104,16 @@ def _confirmation(cfg: ChannelSetConfig, window_n: int, period_s: float) -> Conf
                               clear_n=samples_in(cfg.clear_s, period_s), latch=cfg.latch)
 
 
+def window_samples(cfg: ChannelSetConfig, period_s: float) -> int:
+    """N_eval at the measured period: ``window_s`` of samples, at least ``min_window_samples``."""
+    return samples_in(cfg.window_s, period_s, minimum=cfg.min_window_samples)
+
+
 def channel_params(cfg: ChannelSetConfig, period_s: float, *,
                    alarm: AlarmParams | None = None,
                    classifier: ClassifierShape | None = None) -> ChannelMonitorParams:
     """The monitor parameters of one channel sampled every ``period_s`` (measured)."""
-    n = samples_in(cfg.window_s, period_s)
+    n = window_samples(cfg, period_s)
     return ChannelMonitorParams(
         threshold=cfg.threshold, noise_sigma=cfg.noise_sigma, runaway_rate_per_s=cfg.runaway_rate,
         dt_s=period_s, rms=RmsWindowParams(rms_window_n=n),
@@ -118,14 +129,16 @@ def set_params(cfg: RedundantSetConfig, period_s: float, *, threshold: float | N
                classifier: ClassifierShape | None = None) -> SetMonitorParams:
     """The monitor parameters of one redundant set sampled every ``period_s`` (measured);
     ``threshold`` replaces ``cfg.threshold`` (a scheduled J_th)."""
-    n = samples_in(cfg.window_s, period_s)
+    n = window_samples(cfg, period_s)
     return SetMonitorParams(
         threshold=cfg.threshold if threshold is None else threshold,
         noise_sigma=cfg.noise_sigma, runaway_rate_per_s=cfg.runaway_rate, dt_s=period_s,
         rms=RmsWindowParams(rms_window_n=n), confirmation=_confirmation(cfg, n, period_s),
         history_n=samples_in(cfg.history_s, period_s, minimum=4),
         reclassify_every_n=samples_in(cfg.reclassify_s, period_s),
-        stuck_n=samples_in(cfg.stuck_window_s, period_s, minimum=0)
+        # the frozen-signal test needs a few changes to compare: at least 4 samples (0.8 s of a
+        # 5 Hz stream for the 0.5 s default)
+        stuck_n=samples_in(cfg.stuck_window_s, period_s, minimum=STUCK_MIN_SAMPLES)
         if cfg.stuck_window_s > 0.0 else 0,
         no_data_n=samples_in(cfg.no_data_window_s, period_s)
         if cfg.no_data_window_s > 0.0 else 0,

@@ -14,15 +14,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from gcs_monitor.convert.encode import TLOG_EPOCH_US, Packer
-from gcs_monitor.convert.logs import (
-    LogError,
-    LogInfo,
-    Messages,
-    detect_log_format,
-    extension_note,
-    log_error,
-    read_messages,
-)
+from gcs_monitor.convert.logbase import LogError, LogInfo, Messages, log_error
+from gcs_monitor.convert.logs import detect_log_format, extension_note, read_messages
 from gcs_monitor.link.transports import Source, TlogSource
 
 DEFAULT_CHUNK_BYTES = 16384

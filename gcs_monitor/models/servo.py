@@ -10,7 +10,13 @@ The NDI law (eq. 13) is therefore implemented with r = 3, which is also why the 
 third-order reference model is the natural companion: it supplies ``q_ref``, its first two
 derivatives and ``q_ref'''`` for the error dynamics.
 
-All functions take and return plain floats (they sit inside the simulator's RK4 loop).
+The functions above :func:`pack_params` take and return plain floats (the paper's equations in
+their printed form; the simulator's servo bank runs them as its own kernel). The monitor's
+closed-loop model -- the plant driven by the NDI law on the model's own states, the input
+fault added to the saturated valve command -- runs in the numba kernel of
+``models/_servo_jit.py``: :func:`closed_loop_derivative`, :func:`closed_loop_jacobian` and
+:func:`propagate` below wrap it (the filters of the servo tier call it directly); its
+plain-float reference is ``tests/reference/servo_model.py``.
 """
 
 from __future__ import annotations
@@ -18,19 +24,32 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
+from gcs_monitor.core.kernels import load_kernels
+from gcs_monitor.core.params import param
+from gcs_monitor.core.types import Mat, Vec
+
 
 @dataclass(frozen=True, slots=True)
 class ServoParams:
     """Generic hydraulic actuator parameters (Lu2017 sec. II.A, text below eq. 6)."""
 
-    piston_area_m2: float = 0.0025  # A_p
-    damping_nspm: float = 52.3  # B
-    supply_pressure_pa: float = 1.4e7  # P_s
-    max_valve_flow_m3ps: float = 0.0025  # phi_n
-    mean_chamber_volume_m3: float = 0.001973  # V_m
-    bulk_modulus_pa: float = 1.0e9  # E
-    moving_mass_kg: float = 2000.0  # M
-    leakage_mps: float = 0.023  # L, normalised leakage parameter
+    piston_area_m2: float = param(0.0025, "piston area A_p (Lu2017 sec. II.A)", positive=True)
+    damping_nspm: float = param(52.3, "damping coefficient B (Lu2017 sec. II.A)",
+                                positive=True)
+    supply_pressure_pa: float = param(1.4e7, "reservoir oil pressure P_s (Lu2017 sec. II.A)",
+                                      positive=True)
+    max_valve_flow_m3ps: float = param(0.0025, "maximum valve flow phi_n (Lu2017 sec. II.A)",
+                                       positive=True)
+    mean_chamber_volume_m3: float = param(0.001973, "mean actuator chamber volume V_m (Lu2017 "
+                                          "sec. II.A)", positive=True)
+    bulk_modulus_pa: float = param(1.0e9, "oil bulk modulus E (Lu2017 sec. II.A)",
+                                   positive=True)
+    moving_mass_kg: float = param(2000.0, "mass of the moving system M (Lu2017 sec. II.A)",
+                                  positive=True)
+    leakage_mps: float = param(0.023, "normalised leakage parameter L (Lu2017 sec. II.A)",
+                               positive=True)
 
 
 @dataclass(frozen=True, slots=True)
@@ -42,10 +61,15 @@ class ServoLoopParams:
     tracking-error poles at ``-ndi_pole_radps``.
     """
 
-    ref_bandwidth_radps: float = 20.0
-    ref_damping: float = 0.8
-    ndi_pole_radps: float = 40.0
-    max_valve_cmd: float = 1.0  # |u| <= 1: phi_n is the *maximum* valve flow
+    ref_bandwidth_radps: float = param(20.0, "reference model bandwidth w (ours; Lu2017 sec. "
+                                       "III.B gives a third-order low-pass)", unit="si",
+                                       positive=True)
+    ref_damping: float = param(0.8, "reference model damping zeta (ours)", positive=True)
+    ndi_pole_radps: float = param(40.0, "triple pole of the NDI tracking-error dynamics "
+                                  "(ours; Lu2017 eq. 13 leaves nu to the designer)", unit="si",
+                                  positive=True)
+    max_valve_cmd: float = param(1.0, "|u| limit of the valve command: phi_n is the maximum "
+                                 "valve flow", positive=True)
 
 
 def chamber_gain(x1_m: float, p: ServoParams) -> float:
@@ -194,3 +218,112 @@ def stalled_pressure(u: float, p: ServoParams) -> float:
     # z^2 + k^2 z - k^2 = 0
     z = 0.5 * (-k * k + math.sqrt(k**4 + 4.0 * k * k))
     return s * z
+
+
+# ---------------------------------------------------------------------------------------------
+# the monitor's closed-loop model (kernel: models/_servo_jit.py)
+# ---------------------------------------------------------------------------------------------
+
+_KERNEL = "gcs_monitor.models._servo_jit"
+
+
+def pack_params(p: ServoParams, lp: ServoLoopParams, stroke_m: float) -> np.ndarray:
+    """The constants of eqs. 4 and 13, of the reference model and the rod stroke, in the order
+    of the kernel's ``P_*`` indices."""
+    k = load_kernels(_KERNEL)
+    a = p.piston_area_m2
+    vm = p.mean_chamber_volume_m3
+    w = lp.ref_bandwidth_radps
+    z2 = 2.0 * lp.ref_damping + 1.0
+    lam = lp.ndi_pole_radps
+    out = np.empty(k.N_PARAMS)
+    out[k.P_APS] = a * p.supply_pressure_pa
+    out[k.P_BB] = p.damping_nspm
+    out[k.P_INV_M] = 1.0 / p.moving_mass_kg
+    out[k.P_VMAX] = p.max_valve_flow_m3ps / a
+    out[k.P_LEAK] = p.leakage_mps
+    out[k.P_CNUM] = 2.0 * a * p.bulk_modulus_pa * vm / p.supply_pressure_pa
+    out[k.P_VM2] = vm * vm
+    out[k.P_A2] = a * a
+    out[k.P_W3] = w * w * w
+    out[k.P_Z2W2] = z2 * w * w
+    out[k.P_Z2W] = z2 * w
+    out[k.P_K2] = 3.0 * lam
+    out[k.P_K1] = 3.0 * lam * lam
+    out[k.P_K0] = lam * lam * lam
+    out[k.P_UMAX] = lp.max_valve_cmd
+    out[k.P_STROKE] = stroke_m
+    return out
+
+
+def closed_loop_derivative(s: Vec, q_com_m: float, f_in: float, prm: np.ndarray) -> Vec:
+    """``ds/dt`` of the closed servo loop (Lu2017 eqs. 4, 13 with r = 3).
+
+    Parameters
+    ----------
+    s : (6,) [x1 (m), x2 (m/s), x3 (-), r (m), r' (m/s), r'' (m/s^2)]: plant and reference model
+    q_com_m : rod command (m), the reference model's input
+    f_in : input fault f^i added to the saturated NDI valve command (valve units, -)
+    prm : :func:`pack_params`
+    """
+    d = np.empty(6)
+    load_kernels(_KERNEL).deriv(np.asarray(s, dtype=np.float64), float(q_com_m), float(f_in),
+                                prm, d)
+    return d
+
+
+def closed_loop_jacobian(s: Vec, q_com_m: float, f_in: float,
+                         prm: np.ndarray) -> tuple[Mat, Vec]:
+    """``(A, G)``: ``A = ds_dot/ds`` (6, 6) of the closed loop (the NDI law depends on the plant
+    and the reference states) and ``G = ds_dot/df^i`` (6,), at the arguments of
+    :func:`closed_loop_derivative`."""
+    A = np.empty((6, 6))
+    G = np.empty(6)
+    load_kernels(_KERNEL).jacobian(np.asarray(s, dtype=np.float64), float(q_com_m),
+                                   float(f_in), prm, A, G)
+    return A, G
+
+
+@dataclass(frozen=True, slots=True)
+class Propagation:
+    """One sample interval of the closed loop (:func:`propagate`).
+
+    s : (6,) state at the end; Phi : (6, 6) transition; Gamma : (6,) response of the state to a
+    constant input fault over the interval; Qd : (6, 6) discrete process noise (Lu2017 eqs.
+    19-20, 39); plant and reference states
+    """
+
+    s: Vec
+    Phi: Mat
+    Gamma: Vec
+    Qd: Mat
+
+
+def propagate(s: Vec, q_com0_m: float, q_com1_m: float, f_in: float, dt_s: float, n_sub: int,
+              prm: np.ndarray, *, q_valve: float = 0.0,
+              q_state: tuple[float, ...] = (0.0,) * 6, knee_s: float | None = None
+              ) -> Propagation:
+    """RK4 of the closed loop over ``dt_s`` in ``n_sub`` substeps, the rod command linear from
+    ``q_com0_m`` to ``q_com1_m`` until ``knee_s`` into the interval (default: its end) and held
+    after it, with Phi, Gamma and Q_d (valve-command noise of PSD
+    ``q_valve`` (s), state noises of PSDs ``q_state`` (6,) (SI^2 s)); see the kernel."""
+    out = np.array(s, dtype=np.float64)
+    Phi = np.empty((6, 6))
+    Gam = np.empty(6)
+    Qd = np.empty((6, 6))
+    knee = float(dt_s) if knee_s is None else float(knee_s)
+    load_kernels(_KERNEL).propagate(out, float(q_com0_m), float(q_com1_m), float(f_in),
+                                    float(dt_s), knee, int(n_sub), prm, True, float(q_valve),
+                                    np.asarray(q_state, dtype=np.float64), Phi, Gam, Qd)
+    return Propagation(out, Phi, Gam, Qd)
+
+
+def command_timing_noise(s: Vec, q_com0_m: float, q_com1_m: float, f_in: float, dt_s: float,
+                         n_sub: int, prm: np.ndarray) -> Mat:
+    """(6, 6) state covariance of a rod-command change at an unknown instant of the interval
+    (the kernel's ``command_timing_noise``)."""
+    Q = np.zeros((6, 6))
+    load_kernels(_KERNEL).command_timing_noise(np.array(s, dtype=np.float64), float(q_com0_m),
+                                               float(q_com1_m), float(f_in), float(dt_s),
+                                               int(n_sub), prm, Q)
+    return Q

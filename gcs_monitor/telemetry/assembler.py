@@ -99,6 +99,7 @@ DEFAULT_GPS_DELAY_S = 0.1  # one GPS period at 10 Hz (docs/telemetry.md default 
 DEFAULT_STALE_S = 0.5
 MAX_PENDING = 10_000  # held frames in aligned mode (100 s at 100 Hz): memory bound
 GPS_FIX_3D = 3
+GPS_GAP_PERIODS = 1.5  # GPS samples this many periods apart are still interpolated between
 SURF_ARRAY_ID = 0
 N_SURF = 3
 US_PER_S = 1_000_000
@@ -889,7 +890,12 @@ class FrameAssembler:
     def _finish(self, f: Frame) -> Frame:
         """Attach the GPS velocity interpolated at ``t_us - query_lag`` (module docstring)."""
         lag = self.query_lag_us
-        g = interpolate_gps(self._gps, f.t_us - lag, self.stale_us, self.stale_us)
+        # a slower GPS is interpolated across its own period (1 Hz GPS: 1 s between samples)
+        gps_s = self._gps_period.seconds()
+        max_gap = (self.stale_us if gps_s != gps_s
+                   else max(self.stale_us, round(GPS_GAP_PERIODS * gps_s * US_PER_S)))
+        g = interpolate_gps(self._gps, f.t_us - lag, max_gap, self.stale_us)
+        f.gps_period_s = gps_s
         f.gps_delay_us = lag
         f.output_delay_us = self.align_delay_us
         f.gps_age_s = g.age_s

@@ -13,6 +13,8 @@ import numpy as np
 
 from gcs_monitor.core.types import Vec, Vec3
 
+GPS_AGE_PERIODS = 1.5  # an interpolated GPS velocity's base sample may be this many periods old
+
 
 @dataclass(frozen=True, slots=True)
 class ImuSample:
@@ -131,6 +133,7 @@ class Frame:
     # the velocity is the newest GPS sample held past its time (no later sample brackets the
     # query instant), i.e. a measurement of t_us - gps_age_s, not of t_us
     gps_held: bool = False
+    gps_period_s: float = float("nan")  # measured GPS period (median interval), s
     lat_rad: float = float("nan")
     lon_rad: float = float("nan")
     alt_msl_m: float = float("nan")
@@ -168,6 +171,17 @@ class Frame:
     att_target_age_s: float = float("inf")
     hud: HudSample | None = None
     hud_age_s: float = float("inf")
+
+    def gps_fresh(self, max_age_s: float) -> bool:
+        """The GPS velocity is usable: held, no older than ``max_age_s``; interpolated, between
+        samples no further apart than the stream's own period allows (a 1 Hz GPS's interpolated
+        value is up to 1 s past its base sample and still current)."""
+        if self.gps_vel_ned_mps is None:
+            return False
+        limit = max_age_s
+        if not self.gps_held and self.gps_period_s == self.gps_period_s:
+            limit = max(max_age_s, GPS_AGE_PERIODS * self.gps_period_s)
+        return self.gps_age_s <= limit
 
     @property
     def primary_imu(self) -> ImuSample | None:

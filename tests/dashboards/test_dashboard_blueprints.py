@@ -43,9 +43,11 @@ def test_family_views_and_origins() -> None:
     imu = _views(family_tab(5, imu_views(ImuFamilyConfig())))
     assert len(imu) == 6 and {v.origin for v in imu} == {"/5/channels/acc", "/5/channels/gyro"}
     act = _views(family_tab(5, actuator_views(ActuatorFamilyConfig())))
-    assert len(act) == 6  # positions, effectiveness, one residual per actuator
-    assert {v.origin for v in act} == {"/5/estimates/actuators_aircraft", "/5/channels/actuator"}
-    assert len(_views(overview(5, family_views()))) == 6  # 5 family plots + coverage
+    assert len(act) == 9  # positions, effectiveness, one residual per actuator, 3 servo plots
+    assert {v.origin for v in act} == {"/5/estimates/actuators_aircraft", "/5/channels/actuator",
+                                       "/5/channels/surface/0", "/5/channels/surface/1",
+                                       "/5/channels/surface/2"}
+    assert len(_views(overview(5, family_views()))) == 7  # 6 family plots + coverage
     assert isinstance(alarms_view(5), rrb.TextLogView) and alarms_view(5).origin == "/5/alarms"
     assert isinstance(attitude_view(5), rrb.Spatial3DView) and attitude_view(5).origin == "/5/world"
 

@@ -140,7 +140,8 @@ def test_time_going_backwards_is_an_autopilot_reboot(base_packets):
     r = run_monitor(join(base_packets) + join(base_packets))
     assert r.health["vehicles"]["1"]["link"]["reboots"] == 1
     # the families start afresh once: built at the first frames and again after the reboot
-    assert r.builds == [["imu", "airdata", "actuators"], ["imu", "airdata", "actuators"]]
+    assert r.builds == [["imu", "airdata", "yaw_rate", "actuators"],
+                        ["imu", "airdata", "yaw_rate", "actuators"]]
     assert r.link_alarms("reboot")  # LINK/reboot alarm, raised after the restart
     assert r.sensor_alarms == []
 

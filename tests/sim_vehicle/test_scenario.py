@@ -99,7 +99,7 @@ def test_all_presets_load_and_round_trip() -> None:
     for name in ("lu2016_calm", "lu2016_shear", "lu2016_turbulence", "lu2016_parabolic",
                  "atmaca2025_acc", "atmaca2025_gyro", "chen2020_fault_free",
                  "chen2020_slow_drift", "chen2020_fast_drift", "chen2020_sine",
-                 "demo_airdata_faults", *(f"lu2017_s{i}" for i in range(1, 6))):
+                 "demo_airdata_faults", *(f"lu2017_s{i}" for i in range(6))):
         assert presets[name], name  # has a description
     for name in presets:
         sc = load_scenario(name)

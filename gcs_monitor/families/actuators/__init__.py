@@ -9,7 +9,7 @@ from gcs_monitor.families.base import FamilySpec
 
 SPEC = FamilySpec(
     name="actuators",
-    title="actuators (aircraft tier: RLS per axis, Keipour 2019)",
+    title="actuators (Lu2017 servo level; aircraft level: RLS per axis, Keipour 2019)",
     config=ActuatorFamilyConfig,
     build=ActuatorFamily,
     inputs=(("imu_instances", "IMU"), ("attitude", "attitude"),

@@ -1,6 +1,8 @@
 """Configuration of the actuator family: TOML section ``[actuators]``.
 
-The family composes tiers. The aircraft tier (``[actuators.aircraft]``) judges the surfaces
+The family composes tiers. The servo tier (``[actuators.servo]``, :mod:`.servo`) reconstructs
+each surface's servo faults (Lu2017) where the telemetry reports surface and rod positions. The
+aircraft tier (``[actuators.aircraft]``) judges the surfaces
 and the engine from what every autopilot sends: servo outputs or setpoints, body rates,
 specific force, airspeed and throttle. Its thresholds are on normalised residuals (a residual
 divided by its own running RMS over healthy flight), so one configuration serves airframes and
@@ -14,6 +16,7 @@ from dataclasses import dataclass
 
 from gcs_monitor.core.params import param, section
 from gcs_monitor.core.units import DEG2RAD
+from gcs_monitor.families.actuators.servo import ServoTierConfig
 
 SURFACES = ("aileron", "elevator", "rudder")
 # Default J_th: 1.25 x the worst J after the warm-up over 26 fault-free simulated flights of both
@@ -194,6 +197,8 @@ class ActuatorFamilyConfig:
     where surface feedback exists, the servo tier (Lu2017)."""
 
     enabled: bool = param(True, "monitor the actuator family")
+    servo: ServoTierConfig = section(ServoTierConfig, "servo tier: Lu2017 fault reconstruction "
+                                     "per surface where SURF reports surface and rod positions")
     aircraft: AircraftTierConfig = section(AircraftTierConfig,
                                            "aircraft tier: surfaces and engine from servo "
                                            "outputs, setpoints and the aircraft's response")

@@ -6,8 +6,8 @@ and the family context:
 
 * ``aircraft`` (:mod:`.aircraft`): surfaces and engine from servo outputs or setpoints and the
   aircraft's response, for any autopilot;
-* ``servo`` (Lu2017 IOTSEKF / RTS-EKF per surface where surface feedback exists): added as one
-  entry of :data:`TIERS` when it lands.
+* ``servo`` (:mod:`.servo`): Lu2017's IOTSEKF / RTS-EKF per surface where the telemetry reports
+  surface and rod positions (SURF); without them it reports itself unavailable.
 
 Per Frame every enabled tier runs its three phases; the family's verdict gathers the tiers'
 events, channel statuses and estimates, and judges the Frame when any tier did.
@@ -20,12 +20,14 @@ from typing import Any
 
 from gcs_monitor.families.actuators.aircraft import AircraftTier
 from gcs_monitor.families.actuators.config import ActuatorFamilyConfig
+from gcs_monitor.families.actuators.servo import ServoTier
 from gcs_monitor.families.base import Family, FamilyContext, Verdict
 from gcs_monitor.fdi.records import Estimate, FamilyStatus
 from gcs_monitor.telemetry.frame import Frame
 
 # (configuration field of ActuatorFamilyConfig, builder) of every tier, in the order they run
 TIERS: tuple[tuple[str, Callable[[Any, FamilyContext], Family]], ...] = (
+    ("servo", ServoTier),
     ("aircraft", AircraftTier),
 )
 # the rates of the driving streams the tiers accept (control samples: servo outputs, setpoints)

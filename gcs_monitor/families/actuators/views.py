@@ -29,9 +29,18 @@ def _rms(i: int, name: str) -> PlotSpec:
                      f"+ $origin/{i}/{name}/true_fault"))
 
 
+def _servo(k: int, name: str) -> PlotSpec:
+    """The servo tier's channels of one surface (ChannelId("surface", k, ...)): reconstructed
+    input and output faults, their RMS against the thresholds, the true fault."""
+    return PlotSpec(f"{name} servo: faults, RMS vs threshold", ("channels", "surface", k),
+                    ("+ $origin/**",))
+
+
 def views(cfg: ActuatorFamilyConfig) -> FamilyViews:
-    """Positions and effectiveness in one column, one residual plot per actuator."""
+    """Aircraft level: positions and effectiveness in one column, one residual plot per
+    actuator; servo level: one plot per surface."""
     rms = tuple(_rms(i, n) for i, n in enumerate(ACTUATORS))
     columns = (("Actuators", (_positions(), _effectiveness())),
-               ("Surfaces", rms[:len(SURFACES)]), ("Engine", rms[len(SURFACES):]))
+               ("Surfaces", rms[:len(SURFACES)]), ("Engine", rms[len(SURFACES):]),
+               ("Servo level", tuple(_servo(k, n) for k, n in enumerate(SURFACES))))
     return FamilyViews("Actuators", columns, overview=(_positions(),))

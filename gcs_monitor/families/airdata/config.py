@@ -55,6 +55,10 @@ class AirDataFamilyConfig:
                                     "the CMHE's wind bounds (Wan2018 eq. 21b) and the scheduled "
                                     "thresholds follow it; with [airdata.weather_estimate] on, it "
                                     "is the prior until the estimate has converged")
+    wind_bounds: str = param("weather", "where the CMHE's wind bounds (eq. 21b) come from: "
+                             "weather (the estimated or declared weather, at every sample) or "
+                             "fixed ([airdata.filter] wind_x_max_mps, wind_z_max_mps, "
+                             "wind_rate_max_mps2)", choices=("weather", "fixed"))
     weather_estimate: WeatherConfig = section(WeatherConfig, "the weather estimated online from "
                                               "GPS velocity, attitude and the fused air data")
     filter: AirDataEstimatorConfig = section(

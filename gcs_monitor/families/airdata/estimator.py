@@ -379,7 +379,7 @@ class AirDataEstimator:
             return None, "no IMU sample"
         if frame.euler_rad is None or frame.att_age_s > self.cfg.max_att_age_s:
             return None, "attitude missing or stale"
-        if frame.gps_vel_ned_mps is None or frame.gps_age_s > self.cfg.max_gps_age_s:
+        if not frame.gps_fresh(self.cfg.max_gps_age_s):
             return None, "gps velocity missing or stale"
         if not np.isfinite(frame.baro_alt_m):
             return None, "baro altitude missing"

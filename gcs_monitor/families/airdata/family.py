@@ -54,15 +54,17 @@ class AirDataFamily:
         self.cfg = cfg
         self.ctx = ctx
         self.estimator: AirDataEstimator | None = estimator
+        fixed = cfg.wind_bounds == "fixed"
         if estimator is None and cfg.estimator != "none":
-            est_cfg = dataclasses.replace(cfg.filter, envelope=cfg.weather)
+            est_cfg = dataclasses.replace(cfg.filter, envelope=None if fixed else cfg.weather)
             self.estimator = AirDataEstimator(est_cfg, variant=cfg.estimator)
         self.reference = self.estimator.name if self.estimator is not None else "voting"
         # the weather: declared (Wan2018), or estimated from the flight with the declared as prior
         self.weather = (WeatherEstimator(cfg.weather_estimate, cfg.weather)
                         if cfg.weather_estimate.enabled else None)
         envelope = self.weather.estimate.envelope if self.weather is not None else cfg.weather
-        if self.estimator is not None and self.weather is not None:
+        self._fixed_bounds = fixed
+        if self.estimator is not None and self.weather is not None and not fixed:
             self.estimator.set_envelope(envelope)
         sigma = envelope.turbulence_sigma_mps  # J_th of the sets follow the weather
         self.thresholds = {s: scheduled_threshold(getattr(cfg.fdi, s), sigma) for s in SETS}
@@ -159,7 +161,7 @@ class AirDataFamily:
         env = w.add(t, wind)
         if env is None:
             return None
-        if self.estimator is not None:
+        if self.estimator is not None and not self._fixed_bounds:
             self.estimator.set_envelope(env)
         for s in SETS:
             th = scheduled_threshold(getattr(self.cfg.fdi, s), env.turbulence_sigma_mps)

@@ -257,7 +257,7 @@ class ImuHosmEstimator:
             return None, "attitude stale"
         if frame.gps_vel_ned_mps is None or not _all_finite(frame.gps_vel_ned_mps):
             return None, "gps velocity missing"
-        if frame.gps_age_s > self.cfg.max_gps_age_s:
+        if not frame.gps_fresh(self.cfg.max_gps_age_s):
             return None, "gps velocity stale"
         u_m = np.concatenate([imu.acc_frd_mps2, imu.omega_frd_radps])
         if not _all_finite(u_m):

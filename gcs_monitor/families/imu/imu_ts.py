@@ -328,7 +328,7 @@ class ImuTwoStageEstimator:
         eul = np.asarray(frame.euler_rad, dtype=np.float64)
         if self.cfg.model == "gs":
             v = frame.gps_vel_ned_mps
-            if v is None or frame.gps_age_s > cfg.max_gps_age_s or not _all_finite(v):
+            if v is None or not frame.gps_fresh(cfg.max_gps_age_s) or not _all_finite(v):
                 return None
             if frame.gps_held and frame.gps_age_s > cfg.max_held_gps_age_s:
                 return None

@@ -275,4 +275,5 @@ def test_with_family_replaces_one_family() -> None:
     assert c.family("imu") == MonitorConfig().family("imu")
     imu = dataclasses.replace(c.family("imu"), enabled=False)
     assert [f.name for f in build_families(dict(c.with_family("imu", imu).families),
-                                           FamilyContext(1, 0.5))] == ["airdata", "actuators"]
+                                           FamilyContext(1, 0.5))] == ["airdata", "yaw_rate",
+                                                                       "actuators"]

@@ -14,7 +14,8 @@ import pytest
 from gcs_monitor.cli import main
 from gcs_monitor.convert.csvmap import MAPS_DIR, read_mapped_csv
 from gcs_monitor.convert.formats import read_onspeed
-from gcs_monitor.convert.logs import KNOWN_FORMATS, LogError, detect_log_format
+from gcs_monitor.convert.logbase import KNOWN_FORMATS, LogError
+from gcs_monitor.convert.logs import detect_log_format
 from gcs_monitor.link.decode import Decoder
 from gcs_monitor.link.logs import open_log
 from tests.helpers.dataflash import plane_log

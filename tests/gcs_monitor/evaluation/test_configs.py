@@ -122,4 +122,4 @@ def test_families_for_hands_variants_to_their_families() -> None:
     assert isinstance(air[0], AirDataFamily) and air[0].estimator is not None
     assert air[0].estimator.cfg.envelope is None  # fixed wind bounds, not the declared weather
     default = configs.families_for(MonitorConfig())(ctx)
-    assert [f.name for f in default] == ["imu", "airdata", "actuators"]
+    assert [f.name for f in default] == ["imu", "airdata", "yaw_rate", "actuators"]

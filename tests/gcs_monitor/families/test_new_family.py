@@ -39,7 +39,8 @@ def _flight(bias_mps: float, from_us: int) -> bytes:
 def test_toy_family_runs_alarms_and_reports(tmp_path: Path) -> None:
     cfg_file = tmp_path / "toy.toml"
     cfg_file.write_text("[vspeed.fdi]\nthreshold_mps = 1.5\n[imu]\nenabled = false\n"
-                        "[airdata]\nenabled = false\n[actuators]\nenabled = false\n")
+                        "[airdata]\nenabled = false\n[yaw_rate]\nenabled = false\n"
+                        "[actuators]\nenabled = false\n")
     cfg = load_config(cfg_file)
     assert cfg.family("vspeed").fdi.threshold == 1.5
     mon = Monitor(cfg)

@@ -1,0 +1,294 @@
+"""Never blind, never fooled (issue 15): the monitor with its defaults on flights it was not
+tuned to.
+
+* :func:`rate_sweep`: the demo and a Lu2016 scenario flown at every combination of IMU 10 / 25 /
+  50 / 100 / 200 Hz, air data 5 / 10 / 20 / 50 Hz and GPS 1 / 5 / 10 Hz (the simulator's sensor
+  rates; everything else identical), monitored with the defaults: each family's coverage, the
+  monitor_degraded alarms, false alarms, faults detected and their delays;
+* :func:`no_declared_weather`: fault-free and faulty flights from calm air to Dryden sigma
+  3.54 m/s with shear, monitored with the defaults (weather estimated from the flight) against
+  the same with the scenario's weather declared; and every Lu2016 / Atmaca2025 preset with the
+  defaults: no air-data alarm.
+
+Every run goes through MAVLink bytes (:func:`gcs_monitor.evaluation.runs.feed_packets`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import re
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from gcs_monitor.config import MonitorConfig
+from gcs_monitor.core.types import ChannelId
+from gcs_monitor.evaluation import scenarios
+from gcs_monitor.evaluation.campaign import run_records
+from gcs_monitor.evaluation.configs import with_declared_weather
+from gcs_monitor.evaluation.records import METHOD_MEDIAN, METHOD_MONITOR
+from gcs_monitor.evaluation.report import METHOD_LABEL, fmt_fixed, md_table, write_csv
+from gcs_monitor.evaluation.runner import run_parallel
+from gcs_monitor.evaluation.runs import feed_packets
+from gcs_monitor.evaluation.scenarios import (
+    CAMPAIGN_SEED,
+    FULL_DURATION_S,
+    campaign_scenarios,
+    preset,
+)
+from gcs_monitor.evaluation.scoring import tables_of
+from gcs_monitor.fdi.events import AlarmEvent, AlarmKind, AlarmState
+from gcs_monitor.fdi.metrics import MetricsRow
+from gcs_monitor.fdi.records import StepOutput
+from gcs_monitor.monitor import Monitor
+from sim_vehicle.run import iter_run
+from sim_vehicle.scenario import Scenario, list_presets
+
+IMU_HZ = (10.0, 25.0, 50.0, 100.0, 200.0)
+AIR_HZ = (5.0, 10.0, 20.0, 50.0)
+GPS_HZ = (1.0, 5.0, 10.0)
+QUICK = ((10.0, 5.0, 1.0), (25.0, 10.0, 5.0), (50.0, 50.0, 10.0), (100.0, 20.0, 10.0),
+         (200.0, 20.0, 10.0))
+SWEEP_PRESETS = ("demo_airdata_faults", "lu2016_turbulence")
+_IMU = re.compile(r"^imu(\d)\.(acc|gyro)\.([xyzpqr])$")
+_AIR = re.compile(r"^(aoa|cas)(\d)$")
+SCORED = (AlarmKind.SENSOR_FAULT, AlarmKind.SET_LOST, AlarmKind.ACTUATOR_FAULT)
+GRACE_US = 1_000_000
+
+
+def truth_channel(name: str) -> ChannelId | None:
+    """A simulator fault channel (``aoa1``, ``imu0.acc.z``) as the monitor's ChannelId."""
+    m = _AIR.match(name)
+    if m:
+        return ChannelId(m.group(1), int(m.group(2)))
+    m = _IMU.match(name)
+    if m:
+        return ChannelId(m.group(2), int(m.group(1)), m.group(3))
+    return None
+
+
+@dataclass
+class RunOutcome:
+    """One monitored flight against its truth."""
+
+    name: str
+    coverage: dict[str, float] = field(default_factory=dict)  # family -> share of flight judged
+    state: dict[str, str] = field(default_factory=dict)  # family -> final state
+    degraded: dict[str, int] = field(default_factory=dict)  # family -> monitor_degraded raises
+    reasons: dict[str, str] = field(default_factory=dict)  # family -> why not judged (last)
+    faults: int = 0
+    detected: int = 0
+    delays_s: list[float] = field(default_factory=list)
+    false_alarms: list[str] = field(default_factory=list)  # channels raised without a fault
+    air_false: int = 0  # false alarms on the air-data channels
+
+
+def _with_rates(sc: Scenario, imu_hz: float, air_hz: float, gps_hz: float) -> Scenario:
+    rates = dataclasses.replace(sc.sensors.rates, imu_hz=imu_hz, attitude_hz=imu_hz,
+                                airdata_hz=air_hz, baro_hz=air_hz, gps_hz=gps_hz,
+                                static_hz=min(air_hz, sc.sensors.rates.static_hz))
+    dt = min(sc.dt_s, 1.0 / imu_hz)
+    return dataclasses.replace(sc, sensors=dataclasses.replace(sc.sensors, rates=rates),
+                               dt_s=dt, name=f"{sc.name}@imu{imu_hz:g}/air{air_hz:g}/"
+                               f"gps{gps_hz:g}")
+
+
+def monitor_run(sc: Scenario, cfg: MonitorConfig) -> RunOutcome:
+    """Simulate ``sc``, monitor its MAVLink bytes with ``cfg``, score against its faults."""
+    last: dict[str, Any] = {}
+
+    def on_step(sysid: int, frame: Any, out: StepOutput) -> None:
+        for c in out.coverage:
+            last[c.family] = c
+
+    mon = Monitor(cfg, on_step=on_step)
+    feed_packets(mon, (pkt for _, _, pkt in iter_run(sc)))
+    return score(sc.name, sc, mon.events, last)
+
+
+def score(name: str, sc: Scenario, events: Sequence[AlarmEvent],
+          coverage: dict[str, Any]) -> RunOutcome:
+    out = RunOutcome(name)
+    for fam, c in coverage.items():
+        out.coverage[fam] = c.overall
+        out.state[fam] = c.state
+        out.reasons[fam] = c.reason
+    truth: dict[ChannelId, list[tuple[int, int | None]]] = {}
+    for f in sc.faults:
+        ch = truth_channel(f.channel)
+        if ch is not None:
+            end = None if f.t_end_s is None else round(f.t_end_s * 1e6)
+            truth.setdefault(ch, []).append((round(f.t_start_s * 1e6), end))
+    raised = [e for e in events if e.state is AlarmState.RAISED]
+    for e in raised:
+        if e.kind is AlarmKind.MONITOR_DEGRADED:
+            out.degraded[e.channel.axis] = out.degraded.get(e.channel.axis, 0) + 1
+    for ch, spans in truth.items():
+        for t0, t1 in spans:
+            out.faults += 1
+            hit = next((e.t_us for e in raised if e.kind in SCORED and e.channel == ch
+                        and e.t_us >= t0 and (t1 is None or e.t_us <= t1 + GRACE_US)), None)
+            if hit is not None:
+                out.detected += 1
+                out.delays_s.append((hit - t0) * 1e-6)
+    for e in raised:
+        if e.kind not in SCORED:
+            continue
+        ch = e.channel
+        base = ChannelId(ch.kind, ch.instance, ch.axis) if ch.instance >= 0 else ch
+        if base not in truth and not any(t.kind == ch.kind for t in truth if ch.instance < 0):
+            out.false_alarms.append(str(ch))
+            if ch.kind in ("aoa", "cas"):
+                out.air_false += 1
+    return out
+
+
+def _fmt_cov(o: RunOutcome, fam: str) -> str:
+    c = o.coverage.get(fam)
+    if c is None or not math.isfinite(c):
+        st = o.state.get(fam, "-")
+        return st if st != "-" else "-"
+    mark = " (degraded)" if o.degraded.get(fam) else ""
+    return f"{100 * c:.0f} %{mark}"
+
+
+def _sweep_job(job: tuple[str, float, float, float, float]) -> RunOutcome:
+    name, imu_hz, air_hz, gps_hz, duration = job
+    sc = preset(name, duration_s=duration if duration > 0 else None)
+    return monitor_run(_with_rates(sc, imu_hz, air_hz, gps_hz), MonitorConfig())
+
+
+def rate_sweep(out: Path, jobs: int = 2, quick: bool = False) -> str:
+    """The demo and Lu2016 turbulence scenarios at every IMU x air-data x GPS rate, default
+    configuration: coverage per family, monitor_degraded, faults detected, false alarms."""
+    grid = QUICK if quick else [(i, a, g) for i in IMU_HZ for a in AIR_HZ for g in GPS_HZ]
+    duration = 0.0
+    job_list = [(n, i, a, g, duration) for n in SWEEP_PRESETS for i, a, g in grid]
+    res = run_parallel(_sweep_job, job_list, jobs, desc="rate sweep")
+    out.mkdir(parents=True, exist_ok=True)
+    header = ["scenario", "IMU Hz", "air Hz", "GPS Hz", "imu coverage", "airdata coverage",
+              "faults detected", "mean delay s", "false alarms", "not judged (why)"]
+    rows = []
+    for (n, i, a, g, _), o in zip(job_list, res, strict=True):
+        why = "; ".join(f"{f}: {r}" for f, r in o.reasons.items() if r and (
+            o.degraded.get(f) or o.state.get(f) in ("degraded", "starting", "unavailable")))
+        delay = f"{sum(o.delays_s) / len(o.delays_s):.2f}" if o.delays_s else "-"
+        rows.append([n, f"{i:g}", f"{a:g}", f"{g:g}", _fmt_cov(o, "imu"),
+                     _fmt_cov(o, "airdata"), f"{o.detected}/{o.faults}", delay,
+                     ", ".join(o.false_alarms) or "0", why or "-"])
+    write_csv(out / "rate_sweep.csv", header, rows)
+    n_false = sum(1 for r in res if r.false_alarms)
+    n_missed = sum(r.faults - r.detected for r in res)
+    return (f"Rate sweep ({len(res)} runs, default configuration): {n_false} runs with a false "
+            f"alarm, {n_missed} faults missed in total.\n\n" + md_table(header, rows))
+
+
+# ------------------------------------------------------------------------------------------------
+# weather the monitor was not told about
+# ------------------------------------------------------------------------------------------------
+
+def weather_presets() -> list[str]:
+    """Every preset of the simulator (Lu2016, Atmaca2025, the demo, and the actuator and
+    yaw-rate families' presets): none of them may raise an air-data alarm on a channel it
+    does not fault."""
+    return [n for n, _ in list_presets()]
+
+
+def _weather_job(job: tuple[str, bool]) -> RunOutcome:
+    name, declared = job
+    sc = preset(name)
+    cfg = MonitorConfig()
+    if declared:
+        cfg = with_declared_weather(cfg, sc)
+    return monitor_run(sc, cfg)
+
+
+def presets_without_declared_weather(out: Path, jobs: int = 2, quick: bool = False) -> str:
+    """Every Lu2016 and Atmaca2025 preset (and the demo) with the defaults and no declared
+    weather: the air-data family raises nothing on these IMU-fault flights."""
+    names = weather_presets()
+    names = [n for n in names if n.startswith("lu2016")][:3] if quick else names
+    job_list = [(n, d) for n in names for d in (False, True)]
+    res = run_parallel(_weather_job, job_list, jobs, desc="presets")
+    header = ["preset", "weather", "air-data false alarms", "all false alarms",
+              "faults detected", "imu coverage", "airdata coverage"]
+    rows = [[n, "declared" if d else "estimated (defaults)", str(o.air_false),
+             ", ".join(o.false_alarms) or "0", f"{o.detected}/{o.faults}", _fmt_cov(o, "imu"),
+             _fmt_cov(o, "airdata")] for (n, d), o in zip(job_list, res, strict=True)]
+    out.mkdir(parents=True, exist_ok=True)
+    write_csv(out / "presets_weather.csv", header, rows)
+    bad = [r for (n, d), r in zip(job_list, res, strict=True) if not d and r.air_false]
+    return (f"Presets with the defaults and no declared weather: {len(bad)} with an air-data "
+            "alarm.\n\n" + md_table(header, rows))
+
+
+# ------------------------------------------------------------------------------------------------
+# the campaigns without a forecast
+# ------------------------------------------------------------------------------------------------
+
+
+def weather_campaign_markdown(title: str, tables: dict[str, dict[str, list[MetricsRow]]],
+                              n_runs: int, wall_s: float, jobs: int, command: str) -> str:
+    """Table IV rows of the monitor and the median vote, declared against estimated weather."""
+    rows = []
+    for weather, tab in tables.items():
+        for m in (METHOD_MONITOR, METHOD_MEDIAN):
+            for r in tab.get(m, []):
+                rows.append([weather, METHOD_LABEL.get(m, m), r.group, r.n_fault_free,
+                             r.n_faulty, fmt_fixed(r.far_pct), fmt_fixed(r.mdr_pct),
+                             fmt_fixed(r.fir_pct), fmt_fixed(r.delay_max_s),
+                             fmt_fixed(r.delay_mean_s)])
+    return (f"{title}: {n_runs} runs, default configuration, each run twice (its weather "
+            f"declared as a forecast, and none declared: estimated from the flight); wall "
+            f"{wall_s:.0f} s with {jobs} job(s). `{command}`\n\n"
+            + md_table(["weather", "method", "group", "fault-free runs", "faulty runs",
+                        "FAR [%]", "MDR [%]", "FIR [%]", "DetD max [s]", "DetD mean [s]"],
+                       rows))
+
+
+def _weather_campaign(title: str, scs: Sequence[Scenario], out: Path, jobs: int,
+                      command: str) -> str:
+    t0 = time.perf_counter()
+    cfg = MonitorConfig()
+    tables: dict[str, dict[str, list[MetricsRow]]] = {}
+    for label, declare in (("declared", True), ("estimated", False)):
+        recs = run_records(scs, cfg, jobs, desc=f"{title} ({label})", declare_weather=declare)
+        tables[label] = tables_of(recs)
+        header = ["run", "scenario", "faulty", "monitor alarms", "median alarms"]
+        write_csv(out / f"runs_{label}.csv", header,
+                  [[r.index, r.name, r.faulty, r.raised.get(METHOD_MONITOR, 0),
+                    r.raised.get(METHOD_MEDIAN, 0)] for r in recs])
+    md = weather_campaign_markdown(title, tables, len(scs), time.perf_counter() - t0, jobs,
+                                   command)
+    (out / "weather_campaign.md").write_text(md + "\n")
+    return md
+
+
+def wan2018_campaign_weather(out: Path, jobs: int = 2, quick: bool = False) -> str:
+    """The 249-run Wan2018 campaign (``wan2018_campaign``'s runs) with the default
+    configuration, weather declared against none declared: Table IV side by side."""
+    n, dur = (12, (40.0, 60.0)) if quick else (249, FULL_DURATION_S)
+    out.mkdir(parents=True, exist_ok=True)
+    return _weather_campaign("Wan2018 campaign", campaign_scenarios(n, CAMPAIGN_SEED, dur),
+                             out, jobs, "gcs-monitor evaluate --experiment "
+                             f"wan2018_campaign_weather{' --quick' if quick else ''}")
+
+
+def triplex_weather(out: Path, jobs: int = 2, quick: bool = False) -> str:
+    """The 100-run triplex campaign (seed 0) with the default configuration, weather declared
+    against none declared: Table IV side by side."""
+    n = 12 if quick else 100
+    out.mkdir(parents=True, exist_ok=True)
+    return _weather_campaign("Triplex campaign", scenarios.preset_set("triplex", n, 0), out,
+                             jobs, "gcs-monitor evaluate --experiment triplex_weather"
+                             f"{' --quick' if quick else ''}")
+
+
+def experiments() -> dict[str, Callable[[Path, int, bool], str]]:
+    return {"rate_sweep": rate_sweep,
+            "presets_weather": presets_without_declared_weather,
+            "wan2018_campaign_weather": wan2018_campaign_weather,
+            "triplex_weather": triplex_weather}

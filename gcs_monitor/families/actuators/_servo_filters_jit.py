@@ -1,0 +1,298 @@
+"""One surface's IOTSEKF and RTS-EKF step in numba: the implementation the monitor runs.
+
+``servo_filters.ServoFilters`` wraps it (see that module for the model and the choices); the
+numpy reference of the equivalence test is ``tests/reference/servo_filters.py``, which chains
+the same kernels of ``models/_servo_jit.py``, ``filters/_iotsekf_jit.py`` and
+``filters/_three_step_jit.py`` from Python. One call per surface and SURF sample, on a packed
+state (``S_*`` offsets) and a configuration vector (``C_*``); writes the output row (``O_*`` of
+``servo_filters``). Loaded through ``gcs_monitor.core.kernels``.
+"""
+# ruff: noqa: N803, N806, E741
+# mypy: disable-error-code="no-untyped-def"
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from gcs_monitor.filters._iotsekf_jit import step as iotsekf_step
+from gcs_monitor.filters._three_step_jit import predict_covariance, update
+from gcs_monitor.models._servo_jit import ndi, propagate
+
+# this file calls the jitted functions of these files: see gcs_monitor.core.kernels
+KERNEL_DEPENDENCIES = {
+    "gcs_monitor.models._servo_jit": "b8dbc61a6eef81a2",
+    "gcs_monitor.filters._iotsekf_jit": "1ee067051d035b30",
+    "gcs_monitor.filters._three_step_jit": "e27af0ed83669903",
+}
+
+jit = numba.njit(cache=True, fastmath=False, nogil=True)
+
+N = 6  # [x1, x2, x3, r, r', r'']
+# packed state: the IOTSEKF in _iotsekf_jit.step's out_state layout, then the RTS-EKF, then
+# the command memory
+S_IOTS = 0  # x_bar (6), P_bar (36), f (1), Pf (1), V (6), x_hat (6), Px (36)
+N_IOTS = N + N * N + 1 + 1 + N + N + N * N
+S_XBAR, S_PBAR, S_F, S_PF, S_V, S_XHAT, S_PX = (0, 6, 42, 43, 44, 50, 56)
+S_XNOM = N_IOTS  # RTS-EKF: x_nom (6), P_nom (36), f_out (2), Pf_out (4)
+S_PNOM = S_XNOM + N
+S_FOUT = S_PNOM + N * N
+S_PFOUT = S_FOUT + 2
+S_QCOM = S_PFOUT + 4  # the rod command of the last sample
+S_QPREV = S_QCOM + 1  # the one before (NaN until known)
+S_JN = S_QPREV + 1  # |second differences| of the command seen (count, ring index)
+S_JIDX = S_JN + 1
+S_JBUF = S_JIDX + 1  # the last JIT_MAX |second differences| of the rod command
+JIT_MAX = 64
+S_XE = S_JBUF + JIT_MAX  # the nominal servo with every command change at the start of its
+# interval (S_XE) and at its end (S_XL)
+S_XL = S_XE + N  # ... and at its end
+N_STATE = S_XL + N
+# configuration vector
+(C_GAIN, C_STROKE, C_ROD_SIG, C_SURF_SIG, C_SUBSTEP, C_QVALVE, C_QS0, C_QS1, C_QS2,
+ C_FRATE, C_GATE, C_LEAD, C_STEP_NOISE, C_JIT_NOISE, C_JIT_WINDOW, C_BLEND) = range(16)
+N_CFG = 16
+# output row (servo_filters.O_*)
+(O_F_IN, O_U, O_X1, O_X2, O_X3, O_N1, O_N2, O_N3, O_F_ROD, O_F_SURF, O_NU, O_S, O_Q_COM,
+ O_Y_ROD, O_Y_SURF, O_SF_ROD, O_SF_D, O_JIT) = range(18)
+N_OUT = 18
+OK = 0
+SPREAD_PER_RMS = 0.5  # sqrt(1.5) / sqrt(6)
+JIT_TRIM = 2  # largest second differences left out of the spread (a step's pair)
+
+
+@jit
+def _held(s0, q, f_in, dt, n_sub, prm, out):
+    """``out`` = the state after ``dt`` from ``s0`` with the command held at ``q``."""
+    for i in range(N):
+        out[i] = s0[i]
+    dummy = np.empty((N, N))
+    dg = np.empty(N)
+    qs = np.zeros(N)
+    propagate(out, q, q, f_in, dt, dt, n_sub, prm, False, 0.0, qs, dummy, dg, dummy)
+
+
+@jit
+def command_noise(s0, qc0, qc1, jit, f_in, dt, n_sub, prm, step_noise, jit_noise, Q):
+    """``Q`` (6, 6) = the covariance of the command's unknown profile inside the interval at
+    ``s0``: ``e e^T / 12`` with ``e`` the end-state difference between the command at ``qc1``
+    and at ``qc0`` all along (a change at an unknown instant), plus ``3 e_j e_j^T / 12`` with
+    ``e_j`` that of a change by ``jit`` (unseen samples off the line over half the interval on
+    average); ``models._servo_jit.command_timing_noise``'s formula, sharing the ``qc0`` run."""
+    for i in range(N):
+        for j in range(N):
+            Q[i, j] = 0.0
+    if not step_noise and not (jit_noise and jit > 0.0):
+        return
+    s0c = np.empty(N)
+    _held(s0, qc0, f_in, dt, n_sub, prm, s0c)
+    e = np.empty(N)
+    if step_noise and qc1 != qc0:
+        s1c = np.empty(N)
+        _held(s0, qc1, f_in, dt, n_sub, prm, s1c)
+        for i in range(N):
+            e[i] = s1c[i] - s0c[i]
+        for i in range(N):
+            for j in range(N):
+                Q[i, j] += e[i] * e[j] / 12.0
+    if jit_noise and jit > 0.0:
+        sj = np.empty(N)
+        _held(s0, qc0 + jit, f_in, dt, n_sub, prm, sj)
+        for i in range(N):
+            e[i] = sj[i] - s0c[i]
+        for i in range(N):
+            for j in range(N):
+                Q[i, j] += 3.0 * (e[i] * e[j] / 12.0)
+
+
+@jit
+def unseen_spread(st, qc0, qc1, dt, cfg):
+    """The spread of the command samples the SURF stream did not carry (m of rod) and the ring
+    buffer's next count and index (-1, -1: no new second difference).
+
+    ``SPREAD_PER_RMS`` x the RMS of ``|q_k - 2 q_{k-1} + q_{k-2}|`` over the jitter window (the
+    newest included) without its ``JIT_TRIM`` largest values: for a command with white jitter
+    of sigma per autopilot sample at twice the SURF rate, the second differences of the samples
+    seen have sigma ``sqrt(6)`` sigma and an unseen sample lies ``sqrt(1.5)`` sigma off the line
+    through its neighbours; the trim drops the pair of values a command step leaves (the step
+    noise covers those), a one-sample spike keeps its third.
+    """
+    qprev = st[S_QPREV]
+    if cfg[C_JIT_NOISE] == 0.0 or qprev != qprev:
+        return 0.0, -1, -1
+    jn = int(st[S_JN])
+    jidx = int(st[S_JIDX])
+    n = max(3, min(JIT_MAX, int(round(cfg[C_JIT_WINDOW] / dt))))
+    vals = np.empty(n)
+    vals[0] = abs(qc1 - 2.0 * qc0 + qprev)
+    have = min(jn, n - 1)
+    for i in range(have):  # the newest ring entries, backwards from the last written
+        vals[1 + i] = st[S_JBUF + (jidx - 1 - i) % JIT_MAX]
+    m = 1 + have
+    v = np.sort(vals[:m])
+    keep = m - JIT_TRIM if m > 2 * JIT_TRIM else m
+    acc = 0.0
+    for i in range(keep):
+        acc += v[i] * v[i]
+    return SPREAD_PER_RMS * math.sqrt(acc / m), min(jn + 1, JIT_MAX), (jidx + 1) % JIT_MAX
+
+
+@jit
+def surface_step(st, dt, cmd_rad, y_rod, y_surf_rad, prm, cfg, out):
+    """One SURF interval of one surface's IOTSEKF and RTS-EKF, in place on ``st``
+    (``servo_filters.ServoFilters.step``). Returns 0, or the failing filter's code (1-2: the
+    IOTSEKF's, 3: the RTS-EKF's update); on a failure ``st`` is left as it was."""
+    stroke = cfg[C_STROKE]
+    gain = cfg[C_GAIN]
+    qc0 = st[S_QCOM]
+    q = cmd_rad / gain
+    qc1 = stroke if q > stroke else (-stroke if q < -stroke else q)
+    n_sub = max(1, int(math.ceil(dt / cfg[C_SUBSTEP] - 1e-9)))
+    knee = max(dt - cfg[C_LEAD], 0.0)
+    qv = cfg[C_QVALVE]
+    qs = np.zeros(N)
+    qs[0] = cfg[C_QS0]
+    qs[1] = cfg[C_QS1]
+    qs[2] = cfg[C_QS2]
+    jitv, jn, jidx = unseen_spread(st, qc0, qc1, dt, cfg)
+    # IOTSEKF over [x, r]
+    x_bar = st[S_XBAR:S_XBAR + N].copy()
+    P_bar = st[S_PBAR:S_PBAR + N * N].copy().reshape((N, N))
+    f = st[S_F:S_F + 1].copy()
+    Pf = st[S_PF:S_PF + 1].copy().reshape((1, 1))
+    V = st[S_V:S_V + N].copy().reshape((N, 1))
+    x_hat = st[S_XHAT:S_XHAT + N].copy()
+    f0 = f[0]
+    Qt = np.empty((N, N))
+    command_noise(x_hat, qc0, qc1, jitv, f0, dt, n_sub, prm, cfg[C_STEP_NOISE] != 0.0,
+                  cfg[C_JIT_NOISE] != 0.0, Qt)
+    s = x_hat.copy()
+    Phi = np.empty((N, N))
+    gam = np.empty(N)
+    Qd = np.empty((N, N))
+    propagate(s, qc0, qc1, f0, dt, knee, n_sub, prm, True, qv, qs, Phi, gam, Qd)
+    for i in range(N):
+        for j in range(N):
+            Qd[i, j] += Qt[i, j]
+    xbp = np.empty(N)
+    if cfg[C_BLEND] != 0.0:
+        # x_bar_{k|k-1} + U f_hat = the nonlinear prediction of x_hat: F(x_hat) - (Phi V + G) f
+        for i in range(N):
+            acc = gam[i]
+            for j in range(N):
+                acc += Phi[i, j] * V[j, 0]
+            xbp[i] = s[i] - acc * f0
+    else:  # Lu2017 eq. 17 as printed
+        for i in range(N):
+            xbp[i] = x_bar[i]
+        d6 = np.empty((N, N))
+        dg = np.empty(N)
+        propagate(xbp, qc0, qc1, 0.0, dt, knee, n_sub, prm, False, qv, qs, d6, dg, d6)
+    Gam = np.empty((N, 1))
+    for i in range(N):
+        Gam[i, 0] = gam[i]
+    rf = cfg[C_FRATE] * dt
+    Qf = np.empty((1, 1))
+    Qf[0, 0] = rf * rf
+    H1 = np.zeros((1, N))
+    H1[0, 0] = 1.0
+    y1 = np.empty(1)
+    y1[0] = y_rod
+    R1 = np.empty((1, 1))
+    R1[0, 0] = cfg[C_ROD_SIG] * cfg[C_ROD_SIG]
+    ots = np.empty(N_IOTS)
+    oin = np.empty(3)
+    code = iotsekf_step(xbp, Phi, Gam, Qd, Qf, x_bar, P_bar, f, Pf, V, H1, y1, R1,
+                        cfg[C_GATE], ots, oin)
+    if code != OK:
+        return code
+    # RTS-EKF: the nominal servo over [x, r], the same command-sampling covariance
+    xn = st[S_XNOM:S_XNOM + N].copy()
+    Pn = st[S_PNOM:S_PNOM + N * N].copy().reshape((N, N))
+    Phi_r = np.empty((N, N))
+    Qd_r = np.empty((N, N))
+    propagate(xn, qc0, qc1, 0.0, dt, knee, n_sub, prm, True, qv, qs, Phi_r, gam, Qd_r)
+    for i in range(N):
+        for j in range(N):
+            Qd_r[i, j] += Qt[i, j]
+    Pp = np.empty((N, N))
+    predict_covariance(Pn, Phi_r, Qd_r, Pp)
+    H2 = np.zeros((2, N))
+    H2[0, 0] = 1.0
+    H2[1, 0] = 1.0
+    F2 = np.eye(2)
+    R2 = np.zeros((2, 2))
+    R2[0, 0] = cfg[C_ROD_SIG] * cfg[C_ROD_SIG]
+    ss = cfg[C_SURF_SIG] / gain
+    R2[1, 1] = ss * ss
+    y_surf = y_surf_rad / gain
+    y2 = np.empty(2)
+    y2[0] = y_rod
+    y2[1] = y_surf
+    hx2 = np.empty(2)
+    hx2[0] = xn[0]
+    hx2[1] = xn[0]
+    xr = np.empty(N)
+    Pr = np.empty((N, N))
+    fr = np.empty(2)
+    Pfr = np.empty((2, 2))
+    nu2 = np.empty(2)
+    sd2 = np.empty(2)
+    ra2 = np.empty(2)
+    if not update(xn, Pp, hx2, H2, F2, y2, R2, cfg[C_GATE], xr, Pr, fr, Pfr, nu2, sd2, ra2):
+        return 3
+    # the timing envelope of the nominal servo: the same command sequence with each change at
+    # the start and at the end of its interval, propagated through the nonlinear loop
+    xe = st[S_XE:S_XE + N].copy()
+    xl = st[S_XL:S_XL + N].copy()
+    _held(st[S_XE:S_XE + N], qc1, 0.0, dt, n_sub, prm, xe)
+    _held(st[S_XL:S_XL + N], qc0, 0.0, dt, n_sub, prm, xl)
+    env = xe[0] - xl[0]
+    # commit
+    for i in range(N_IOTS):
+        st[S_IOTS + i] = ots[i]
+    for i in range(N):
+        st[S_XNOM + i] = xr[i]
+        for j in range(N):
+            st[S_PNOM + i * N + j] = Pr[i, j]
+    st[S_FOUT] = fr[0]
+    st[S_FOUT + 1] = fr[1]
+    for i in range(2):
+        for j in range(2):
+            st[S_PFOUT + 2 * i + j] = Pfr[i, j]
+    if jn >= 0:  # a new second difference enters the ring
+        st[S_JBUF + int(st[S_JIDX])] = abs(qc1 - 2.0 * qc0 + st[S_QPREV])
+        st[S_JN] = jn
+        st[S_JIDX] = jidx
+    st[S_QPREV] = qc0
+    st[S_QCOM] = qc1
+    for i in range(N):
+        st[S_XE + i] = xe[i]
+        st[S_XL + i] = xl[i]
+    # outputs
+    xh = st[S_XHAT:S_XHAT + N].copy()
+    fn = st[S_F]
+    grad = np.empty(3)
+    out[O_F_IN] = fn
+    out[O_U] = ndi(xh, qc1, prm, grad) + fn
+    out[O_X1] = xh[0]
+    out[O_X2] = xh[1]
+    out[O_X3] = xh[2]
+    out[O_N1] = xr[0]
+    out[O_N2] = xr[1]
+    out[O_N3] = xr[2]
+    out[O_F_ROD] = fr[0]
+    out[O_F_SURF] = fr[1]
+    out[O_NU] = oin[0]
+    out[O_S] = oin[1]
+    out[O_Q_COM] = qc1
+    out[O_Y_ROD] = y_rod
+    out[O_Y_SURF] = y_surf
+    # the rod output fault's sigma: P^f (eq. 43) and the timing envelope (uniform between
+    # its two edges: variance env^2 / 12)
+    out[O_SF_ROD] = math.sqrt(max(Pfr[0, 0], 0.0) + env * env / 12.0)
+    out[O_SF_D] = math.sqrt(max(Pfr[0, 0] + Pfr[1, 1] - 2.0 * Pfr[0, 1], 0.0))
+    out[O_JIT] = jitv
+    return OK

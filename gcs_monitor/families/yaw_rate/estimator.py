@@ -1,0 +1,170 @@
+"""The Chen2020 LPV sliding-mode observer on the Frames of one vehicle.
+
+Per observer step (``[yaw_rate.observer] step_s``, Chen2020's 50 Hz), from the Frame:
+``y_p = [phi, beta, p, r]`` (ATTITUDE roll, AOA_SSA sideslip, the primary IMU's roll and yaw
+rates), ``u_p = [delta_a, delta_r]`` (surface positions, else commands, of DEBUG_FLOAT_ARRAY
+``SURF``), and ``rho = [V_eas, V_eas^2]`` with ``V_eas`` from the median valid CAS instance at
+the barometric altitude (Chen2020 eq. 59). The observer (:mod:`gcs_monitor.filters.lpv_smo`)
+gives the fault estimate of the monitored gyro axis, low-passed to the equivalent output
+injection, and the corrected (virtual) gyro ``y - f_hat`` (Chen2020 eq. 24).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from gcs_monitor.core.atmosphere import tas_from_cas
+from gcs_monitor.core.types import ChannelId
+from gcs_monitor.families.yaw_rate.config import YawRateFamilyConfig
+from gcs_monitor.families.yaw_rate.design import ObserverDesign, load_design
+from gcs_monitor.fdi.records import Estimate
+from gcs_monitor.filters.lpv_smo import SmoDesign, SmoState, smo_init, smo_matrices, smo_step
+from gcs_monitor.models.lateral import STATES, eas_from_tas
+from gcs_monitor.telemetry.frame import Frame
+
+US_PER_S = 1_000_000
+AILERON, RUDDER = 0, 2  # surface indices of the telemetry contract
+# residuals of the Estimate: ||e_y|| (sliding maintained) and the fault estimate before the
+# equivalent-injection low-pass
+EY_CHANNEL = ChannelId("smo_ey", 0)
+RAW_CHANNEL = ChannelId("smo_f_raw", 0)
+
+
+@dataclass(frozen=True, slots=True)
+class LateralInputs:
+    """One sample of the observer's inputs (SI) or why there is none."""
+
+    y_p: np.ndarray | None
+    u: np.ndarray | None
+    eas_mps: float
+    reason: str = ""
+
+
+def lateral_inputs(frame: Frame, stale_s: float) -> LateralInputs:
+    """The observer's measurements of a Frame, or the first missing input."""
+    nan = math.nan
+    imu = frame.primary_imu
+    if imu is None:
+        return LateralInputs(None, None, nan, "no IMU sample")
+    if frame.euler_rad is None:
+        return LateralInputs(None, None, nan, "no attitude (ATTITUDE)")
+    beta = frame.ssa_rad
+    if not math.isfinite(beta):
+        return LateralInputs(None, None, nan, "no sideslip (AOA_SSA)")
+    surf = frame.surf_pos_rad if frame.surf_pos_rad is not None else frame.surf_cmd_rad
+    if surf is None:
+        return LateralInputs(None, None, nan, "no surface deflections (SURF)")
+    cas = [c for c, a in zip(frame.cas_mps.tolist(), frame.cas_age_s.tolist(), strict=False)
+           if c == c and a <= stale_s]
+    if not cas:
+        return LateralInputs(None, None, nan, "no airspeed (AIRSPEED)")
+    cas.sort()
+    mid = len(cas) // 2
+    v_cas = cas[mid] if len(cas) % 2 else 0.5 * (cas[mid - 1] + cas[mid])
+    alt = frame.baro_alt_m if math.isfinite(frame.baro_alt_m) else frame.alt_msl_m
+    eas = eas_from_tas(tas_from_cas(v_cas, alt), alt) if math.isfinite(alt) else v_cas
+    w = imu.omega_frd_radps
+    return LateralInputs(np.array((frame.euler_rad[0], beta, w[0], w[2]), dtype=np.float64),
+                         np.array((surf[AILERON], surf[RUDDER]), dtype=np.float64), eas)
+
+
+class YawRateEstimator:
+    """Chen2020 observer for the configured gyro axis (see the module docstring)."""
+
+    name = "yaw_rate_smo"
+
+    def __init__(self, cfg: YawRateFamilyConfig, *, design: ObserverDesign | None = None,
+                 stale_s: float = 0.5) -> None:
+        self.cfg = cfg
+        self.design = design if design is not None else load_design(cfg.design)
+        if cfg.sensor not in self.design.sensors:
+            raise ValueError(f"design {cfg.design!r} has no observer for sensor {cfg.sensor!r}; "
+                             f"it has {sorted(self.design.sensors)}")
+        d: SmoDesign = self.design.sensors[cfg.sensor]
+        if cfg.observer.modulation > 0.0:
+            from dataclasses import replace
+
+            d = replace(d, k=cfg.observer.modulation)
+        m = self.design.model
+        self.mats = smo_matrices(m.A, m.B, m.c, d)
+        self.index = STATES.index(cfg.sensor)
+        lo, hi = m.eas_range_mps
+        mg = cfg.observer.eas_margin
+        self.eas_range = (lo * (1.0 - mg), hi * (1.0 + mg))
+        self.stale_s = stale_s
+        self._step_us = round(cfg.observer.step_s * US_PER_S)
+        self._gap_us = round(cfg.max_gap_s * US_PER_S)
+        self._reanchor_us = round(cfg.reanchor_s * US_PER_S)
+        self._tau = cfg.observer.nu_filter_s
+        self._channels: dict[int, ChannelId] = {}
+        self.reset()
+
+    def reset(self) -> None:
+        self._s: SmoState | None = None
+        self._last_us: int | None = None
+        self._inst = -1
+        self._f_lp = 0.0
+
+    def _fault_vec(self, f: float) -> np.ndarray:
+        return np.array([f])
+
+    def due(self, frame: Frame) -> bool:
+        """Whether the observer steps on this Frame (every ``step_s``, on the measured time)."""
+        last = self._last_us
+        # an eighth of a step of slack: 100 Hz Frames with 20 ms steps step on every second
+        # Frame despite jitter
+        return last is None or 8 * (frame.t_us - last) >= 7 * self._step_us
+
+    def step(self, frame: Frame) -> Estimate:
+        """One observer step on this Frame (the caller checks :meth:`due`)."""
+        t = frame.t_us
+        inp = lateral_inputs(frame, self.stale_s)
+        if inp.y_p is None or inp.u is None:  # the next sample re-anchors over the gap
+            return Estimate.unavailable(self.name, t, inp.reason)
+        lo, hi = self.eas_range
+        if not lo <= inp.eas_mps <= hi:
+            self.reset()
+            return Estimate.unavailable(
+                self.name, t, f"EAS {inp.eas_mps:.0f} m/s outside the model's "
+                f"{lo:.0f}-{hi:.0f} m/s")
+        reinit = ""
+        imu = frame.primary_imu
+        inst = imu.instance if imu is not None else 0
+        if self._s is None or self._last_us is None:
+            reinit = "start"  # the only restart the family waits for (warm-up)
+            self._s = smo_init(self.mats, inp.y_p)
+            self._last_us = t
+            self._f_lp = 0.0
+        elif t - self._last_us > self._gap_us or inst != self._inst:
+            # explicit Euler cannot step across a gap: re-anchor at the measurement, keeping
+            # the fault estimate over a short gap of the same gyro (e~_1 starts near 0)
+            keep = inst == self._inst and t - self._last_us <= self._reanchor_us
+            if not keep:
+                self._f_lp = 0.0
+            self._s = smo_init(self.mats, inp.y_p, self._fault_vec(self._f_lp))
+            self._last_us = t
+        self._inst = inst
+        dt = (t - self._last_us) / US_PER_S
+        self._last_us = t
+        s, out = smo_step(self._s, self.mats, inp.y_p, inp.u, (inp.eas_mps, inp.eas_mps ** 2),
+                          dt if dt > 0.0 else self.cfg.observer.step_s)
+        self._s = s
+        f = float(out.f_hat[0])
+        if not (math.isfinite(f) and math.isfinite(float(s.z.sum()))):
+            self.reset()
+            return Estimate(self.name, t, numerics_ok=False)
+        a = 1.0 if self._tau <= 0.0 else min(1.0, dt / self._tau)
+        self._f_lp += a * (f - self._f_lp)
+        ch = self._channels.get(inst)
+        if ch is None:
+            ch = self._channels[inst] = ChannelId("gyro", inst, self.cfg.sensor)
+        e_y = out.e_y
+        return Estimate(
+            self.name, t, faults={ch: self._f_lp}, virtual={ch: float(inp.y_p[self.index])
+                                                             - self._f_lp},
+            residuals={EY_CHANNEL: math.sqrt(float(e_y @ e_y)), RAW_CHANNEL: f},
+            states={"x_hat": out.x_hat}, reinit=reinit,
+            reinit_warmup_s=self.cfg.warmup_s if reinit else 0.0)

@@ -1,0 +1,363 @@
+"""The monitor's closed-loop servo model in numba (Lu2017 eqs. 4-13): its one implementation.
+
+The servo as a ground monitor sees it: the hydraulic plant (eq. 4) driven by the NDI valve law
+(eq. 13, relative degree 3, see ``models/servo.py``) on the model's own states, tracking the
+third-order reference model driven by the rod command, with the input fault ``f^i`` added to
+the saturated valve command (as the simulator's servo adds an OFC). State
+``s = [x1, x2, x3, r, r', r'']``. The reference states are internal to the servo electronics:
+the IOTSEKF estimates them with the plant states; the RTS-EKF's nominal servo carries them.
+
+* :func:`deriv` -- ``ds/dt``;
+* :func:`jacobian` -- ``A = ds_dot/ds`` (6, 6) of the *closed* loop (the NDI law depends on
+  the plant and the reference states) and ``G = ds_dot/df^i`` (6,);
+* :func:`propagate` -- RK4 over one sample interval in substeps, the rod command piecewise
+  linear between its two samples, with the transition ``Phi`` and the fault input matrix
+  ``Gamma`` as the tangent of the RK4 map (the variational equation integrated with the same
+  stages) and the discrete process noise ``Q_d`` accumulated over the substeps;
+* :func:`command_timing_noise` -- the state uncertainty of a command change at an unknown
+  instant inside the interval.
+
+The chamber gain ``c(x1)`` is evaluated with x1 clamped to the rod stroke (it is singular at
+``x1 = V_m / A_p``, far outside the stroke). The constants travel in one array built by
+``models.servo.pack_params`` (``P_*`` indices). The plain-float reference of the equivalence
+test is ``tests/reference/servo_model.py``. Loaded through ``gcs_monitor.core.kernels``.
+"""
+# ruff: noqa: N803, N806, E741
+# mypy: disable-error-code="no-untyped-def"
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+jit = numba.njit(cache=True, fastmath=False, nogil=True)
+
+(
+    P_APS, P_BB, P_INV_M, P_VMAX, P_LEAK, P_CNUM, P_VM2, P_A2, P_W3, P_Z2W2, P_Z2W,
+    P_K2, P_K1, P_K0, P_UMAX, P_STROKE,
+) = range(16)
+N_PARAMS = 16
+N_S = 6  # [x1, x2, x3, r, r', r'']
+N_X = 3  # plant states the filters estimate
+SQRT_FLOOR = 1.0e-6  # floor under sqrt(1 - sign x3) in the NDI law, as the simulator's servo
+
+
+@jit
+def chamber(x1, prm):
+    """``(c(x1), dc/dx1)``: the chamber gain of eq. 4 row 3, x1 clamped to the stroke."""
+    st = prm[P_STROKE]
+    inside = True
+    if x1 > st:
+        x1 = st
+        inside = False
+    elif x1 < -st:
+        x1 = -st
+        inside = False
+    den = prm[P_VM2] - prm[P_A2] * x1 * x1
+    c = prm[P_CNUM] / den
+    dc = c * 2.0 * prm[P_A2] * x1 / den if inside else 0.0
+    return c, dc
+
+
+@jit
+def reference_jerk(s, q_com, prm):
+    """``r'''`` of the reference model ``w^3 / ((s + w)(s^2 + 2 zeta w s + w^2))``."""
+    return prm[P_W3] * (q_com - s[3]) - prm[P_Z2W2] * s[4] - prm[P_Z2W] * s[5]
+
+
+@jit
+def _ndi(s, q_com, prm):
+    """The NDI law of :func:`ndi` without allocations: ``(u, du/dx1, du/dx2, du/dx3,
+    1/(L_g L_f^2 h), saturated)``."""
+    x1 = s[0]
+    x2 = s[1]
+    x3 = s[2]
+    aps = prm[P_APS]
+    bb = prm[P_BB]
+    inv_m = prm[P_INV_M]
+    leak = prm[P_LEAK]
+    k2 = prm[P_K2]
+    k1 = prm[P_K1]
+    k0 = prm[P_K0]
+    rddd = reference_jerk(s, q_com, prm)
+    cy, dcy = chamber(x1, prm)
+    ydd = (aps * x3 - bb * x2) * inv_m
+    lf3h = (aps * cy * (-leak * x3 - x2) - bb * ydd) * inv_m
+    num = rddd + k2 * (s[5] - ydd) + k1 * (s[4] - x2) + k0 * (s[3] - x1) - lf3h
+    sg = 1.0 if num >= 0.0 else -1.0
+    arg = 1.0 - sg * x3
+    floor = arg <= SQRT_FLOOR
+    sq = math.sqrt(SQRT_FLOOR if floor else arg)
+    b = aps * inv_m * cy * prm[P_VMAX] * sq
+    u = num / b
+    umax = prm[P_UMAX]
+    if u > umax or u < -umax:
+        return (umax if u > 0.0 else -umax), 0.0, 0.0, 0.0, 1.0 / b, True
+    dydd1 = -bb * inv_m
+    dydd2 = aps * inv_m
+    dlf0 = aps * dcy * (-leak * x3 - x2) * inv_m
+    dlf1 = (-aps * cy - bb * dydd1) * inv_m
+    dlf2 = (-aps * cy * leak - bb * dydd2) * inv_m
+    db0 = b * dcy / cy
+    db2 = 0.0 if floor else -b * sg / (2.0 * arg)
+    return (u, (-k0 - dlf0 - u * db0) / b, (-k1 - k2 * dydd1 - dlf1) / b,
+            (-k2 * dydd2 - dlf2 - u * db2) / b, 1.0 / b, False)
+
+
+@jit
+def ndi(s, q_com, prm, grad):
+    """Saturated NDI valve command (Lu2017 eq. 13, r = 3) and, in ``grad`` (3,), its gradient
+    with respect to (x1, x2, x3) (zero when saturated)."""
+    u, g0, g1, g2, _ib, _sat = _ndi(s, q_com, prm)
+    grad[0] = g0
+    grad[1] = g1
+    grad[2] = g2
+    return u
+
+
+@jit
+def deriv(s, q_com, f_in, prm, d):
+    """``d = ds/dt`` (6,) of the closed loop with input fault ``f_in`` (valve units)."""
+    u, _g0, _g1, _g2, _ib, _sat = _ndi(s, q_com, prm)
+    ut = u + f_in
+    sg = 1.0 if ut >= 0.0 else -1.0
+    arg = 1.0 - sg * s[2]
+    flow = prm[P_VMAX] * (math.sqrt(arg) if arg > 0.0 else 0.0) * ut
+    cx, _dc = chamber(s[0], prm)
+    d[0] = s[1]
+    d[1] = (prm[P_APS] * s[2] - prm[P_BB] * s[1]) * prm[P_INV_M]
+    d[2] = cx * (flow - prm[P_LEAK] * s[2] - s[1])
+    d[3] = s[4]
+    d[4] = s[5]
+    d[5] = reference_jerk(s, q_com, prm)
+
+
+@jit
+def jacobian(s, q_com, f_in, prm, A, G):
+    """``A = ds_dot/ds`` (6, 6) of the closed loop (the NDI law depends on the plant states x and
+    on the reference states r) and ``G = ds_dot/df^i`` (6,) at ``s``.
+
+    The blocks: ``A[:3, :3]`` the plant with the NDI feedback, ``A[:3, 3:]`` the NDI law's
+    dependence on the reference states (its feed-forward ``r'''`` included), ``A[3:, 3:]`` the
+    reference model, ``A[3:, :3] = 0``.
+    """
+    u, g0, g1, g2, inv_b, sat = _ndi(s, q_com, prm)
+    ut = u + f_in
+    sg = 1.0 if ut >= 0.0 else -1.0
+    x2 = s[1]
+    x3 = s[2]
+    arg = 1.0 - sg * x3
+    sq = math.sqrt(arg) if arg > 0.0 else 0.0
+    dsq = -sg / (2.0 * sq) if sq > 0.0 else 0.0
+    cx, dcx = chamber(s[0], prm)
+    vmax = prm[P_VMAX]
+    leak = prm[P_LEAK]
+    for i in range(6):
+        for j in range(6):
+            A[i, j] = 0.0
+        G[i] = 0.0
+    A[0, 1] = 1.0
+    A[1, 1] = -prm[P_BB] * prm[P_INV_M]
+    A[1, 2] = prm[P_APS] * prm[P_INV_M]
+    A[2, 0] = dcx * (vmax * sq * ut - leak * x3 - x2) + cx * vmax * sq * g0
+    A[2, 1] = cx * (vmax * sq * g1 - 1.0)
+    A[2, 2] = cx * (vmax * (dsq * ut + sq * g2) - leak)
+    if not sat:  # unsaturated: u depends on r
+        # d num / d(r, r', r'') with r''' = w^3 (q - r) - z2 w^2 r' - z2 w r'' fed forward
+        k = cx * vmax * sq * inv_b
+        A[2, 3] = k * (prm[P_K0] - prm[P_W3])
+        A[2, 4] = k * (prm[P_K1] - prm[P_Z2W2])
+        A[2, 5] = k * (prm[P_K2] - prm[P_Z2W])
+    A[3, 4] = 1.0
+    A[4, 5] = 1.0
+    A[5, 3] = -prm[P_W3]
+    A[5, 4] = -prm[P_Z2W2]
+    A[5, 5] = -prm[P_Z2W]
+    G[2] = cx * vmax * sq
+
+
+@jit
+def _rk4(s, qa, qm, qb, f_in, h, prm, k1, k2, k3, k4, t):
+    """One RK4 step of :func:`deriv` in place on ``s`` (command qa, qm, qb at 0, h/2, h)."""
+    deriv(s, qa, f_in, prm, k1)
+    for i in range(N_S):
+        t[i] = s[i] + 0.5 * h * k1[i]
+    deriv(t, qm, f_in, prm, k2)
+    for i in range(N_S):
+        t[i] = s[i] + 0.5 * h * k2[i]
+    deriv(t, qm, f_in, prm, k3)
+    for i in range(N_S):
+        t[i] = s[i] + h * k3[i]
+    deriv(t, qb, f_in, prm, k4)
+    for i in range(N_S):
+        s[i] = s[i] + h / 6.0 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
+
+
+@jit
+def command_at(qc0, qc1, t, t_knee):
+    """The rod command ``t`` into an interval: linear from ``qc0`` to ``qc1`` until ``t_knee``,
+    ``qc1`` after it (a reported command took effect before its sample instant)."""
+    if t >= t_knee:
+        return qc1
+    return qc0 + (qc1 - qc0) * t / t_knee
+
+
+@jit
+def _stage_tangent(s, q, f_in, prm, M, A, G, K):
+    """``K = A(s) M + [0 | G(s)]`` (6, 7): the variational equation of the closed loop for the
+    tangent ``M = [d s / d s_0 | d s / d f^i]``."""
+    jacobian(s, q, f_in, prm, A, G)
+    for i in range(N_S):
+        for j in range(N_S + 1):
+            acc = 0.0
+            for m in range(N_S):
+                acc += A[i, m] * M[m, j]
+            K[i, j] = acc
+        K[i, N_S] += G[i]
+
+
+@jit
+def propagate(s, qc0, qc1, f_in, dt, t_knee, n_sub, prm, jac, q_valve, q_state, Phi, Gam,
+              Qd):
+    """RK4 of the closed loop over ``dt`` in ``n_sub`` substeps, in place on ``s`` (6,).
+
+    The rod command runs linearly from ``qc0`` to ``qc1`` until ``t_knee`` into the interval
+    and is held at ``qc1`` after it (``t_knee = dt``: linear over the whole interval; see
+    :func:`command_at`); ``f_in`` is held.
+
+    With ``jac`` set, also the transition ``Phi`` (6, 6) (Lu2017 eq. 19) and the fault input
+    matrix ``Gamma`` (6,) (eq. 20) as the derivatives of the integrated state with respect to
+    the initial state and to ``f_in``: the variational equation ``M' = A M + [0 | G]`` rides
+    along each RK4 substep with the same stages (the tangent of the discrete RK4 map, exact up
+    to the kinks of saturation and sign(u); Lu2017 eqs. 19-20 take ``exp(A dt)`` at the
+    interval's start). The discrete process noise (eq. 39, ``Q_k^d``) accumulates per substep
+    ``Q_d <- Phi_i Q_d Phi_i^T + (G q_valve G^T + diag(q_state)) h`` (symmetrised) for a
+    valve-command noise of PSD ``q_valve`` and state noises of PSDs ``q_state`` (6,). ``A`` is
+    block upper triangular, so the plant block ``[:3, :3]`` is the transition of the plant
+    states alone with the reference states given.
+    """
+    h = dt / n_sub
+    k1 = np.empty(N_S)
+    k2 = np.empty(N_S)
+    k3 = np.empty(N_S)
+    k4 = np.empty(N_S)
+    t = np.empty(N_S)
+    A = np.empty((N_S, N_S))
+    G = np.empty(N_S)
+    M = np.empty((N_S, N_S + 1))
+    Mt = np.empty((N_S, N_S + 1))
+    K1 = np.empty((N_S, N_S + 1))
+    K2 = np.empty((N_S, N_S + 1))
+    K3 = np.empty((N_S, N_S + 1))
+    K4 = np.empty((N_S, N_S + 1))
+    W = np.empty((N_S, N_S))
+    W2 = np.empty((N_S, N_S))
+    g0 = np.empty(N_S)
+    if jac:
+        for i in range(N_S):
+            Gam[i] = 0.0
+            for j in range(N_S):
+                Phi[i, j] = 1.0 if i == j else 0.0
+                Qd[i, j] = 0.0
+    for k in range(n_sub):
+        t0 = k * h
+        qa = command_at(qc0, qc1, t0, t_knee)
+        qm = command_at(qc0, qc1, t0 + 0.5 * h, t_knee)
+        qb = command_at(qc0, qc1, t0 + h, t_knee)
+        if not jac:
+            _rk4(s, qa, qm, qb, f_in, h, prm, k1, k2, k3, k4, t)
+            continue
+        for i in range(N_S):  # the substep's tangent starts at [I | 0]
+            for j in range(N_S + 1):
+                M[i, j] = 1.0 if i == j else 0.0
+        _stage_tangent(s, qa, f_in, prm, M, A, G, K1)
+        for i in range(N_S):
+            g0[i] = G[i]
+        deriv(s, qa, f_in, prm, k1)
+        for i in range(N_S):
+            t[i] = s[i] + 0.5 * h * k1[i]
+            for j in range(N_S + 1):
+                Mt[i, j] = M[i, j] + 0.5 * h * K1[i, j]
+        _stage_tangent(t, qm, f_in, prm, Mt, A, G, K2)
+        deriv(t, qm, f_in, prm, k2)
+        for i in range(N_S):
+            t[i] = s[i] + 0.5 * h * k2[i]
+            for j in range(N_S + 1):
+                Mt[i, j] = M[i, j] + 0.5 * h * K2[i, j]
+        _stage_tangent(t, qm, f_in, prm, Mt, A, G, K3)
+        deriv(t, qm, f_in, prm, k3)
+        for i in range(N_S):
+            t[i] = s[i] + h * k3[i]
+            for j in range(N_S + 1):
+                Mt[i, j] = M[i, j] + h * K3[i, j]
+        _stage_tangent(t, qb, f_in, prm, Mt, A, G, K4)
+        deriv(t, qb, f_in, prm, k4)
+        for i in range(N_S):
+            s[i] = s[i] + h / 6.0 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
+            for j in range(N_S + 1):
+                M[i, j] = M[i, j] + h / 6.0 * (K1[i, j] + 2.0 * (K2[i, j] + K3[i, j])
+                                               + K4[i, j])
+        # Phi <- Phi_i Phi, Gamma <- Phi_i Gamma + Gamma_i, Q_d <- Phi_i Q_d Phi_i^T + ...
+        for i in range(N_S):
+            acc = M[i, N_S]
+            for j in range(N_S):
+                acc += M[i, j] * Gam[j]
+            k1[i] = acc
+            for j in range(N_S):
+                a2 = 0.0
+                for m in range(N_S):
+                    a2 += M[i, m] * Phi[m, j]
+                W[i, j] = a2
+        for i in range(N_S):
+            Gam[i] = k1[i]
+            for j in range(N_S):
+                Phi[i, j] = W[i, j]
+        for i in range(N_S):
+            for j in range(N_S):
+                a2 = 0.0
+                for m in range(N_S):
+                    a2 += M[i, m] * Qd[m, j]
+                W[i, j] = a2
+        for i in range(N_S):
+            for j in range(N_S):
+                a2 = 0.0
+                for m in range(N_S):
+                    a2 += W[i, m] * M[j, m]
+                W2[i, j] = a2 + g0[i] * g0[j] * q_valve * h
+            W2[i, i] += q_state[i] * h
+        for i in range(N_S):
+            for j in range(N_S):
+                Qd[i, j] = W2[i, j]
+    if jac:
+        for i in range(N_S):
+            for j in range(i + 1, N_S):
+                v = 0.5 * (Qd[i, j] + Qd[j, i])
+                Qd[i, j] = v
+                Qd[j, i] = v
+
+
+@jit
+def command_timing_noise(s, qc0, qc1, f_in, dt, n_sub, prm, Q):
+    """``Q += e e^T / 12`` (6, 6): the state uncertainty of a command change at an unknown
+    instant of the interval.
+
+    ``e`` is the difference between the states at the end with the command at ``qc1`` all
+    along (changed at the start) and at ``qc0`` all along (changed at the end); the model's
+    linear profile sits between, and a change instant uniform over the interval leaves an
+    error of variance ``|e|^2 / 12`` along ``e``. ``s`` (6,) is not modified.
+    """
+    if qc1 == qc0:
+        return
+    sa = s.copy()
+    sb = s.copy()
+    dummy = np.empty((N_S, N_S))
+    dg = np.empty(N_S)
+    qs = np.zeros(N_S)
+    propagate(sa, qc1, qc1, f_in, dt, dt, n_sub, prm, False, 0.0, qs, dummy, dg, dummy)
+    propagate(sb, qc0, qc0, f_in, dt, dt, n_sub, prm, False, 0.0, qs, dummy, dg, dummy)
+    for i in range(N_S):
+        ei = sa[i] - sb[i]
+        for j in range(N_S):
+            Q[i, j] += ei * (sa[j] - sb[j]) / 12.0
