@@ -78,7 +78,14 @@ def summary_rows(events: list[AlarmEvent], faults: list[dict[str, Any]]) -> list
         else:
             rows.append([channel_label(ch), str(f["kind"]), f"{t0:.1f}", "detected",
                          f"{hit[0].t_us / 1e6 - t0:.2f}", *_raise_cells(*hit)])
+    # the actuator family names a failed surface on two tiers: the aircraft level's
+    # actuator<k>.<name> and, where SURF feedback exists, the servo level's surface<k>.*
+    failed_surfaces = {ch.instance for ch in faulty if ch.kind == "actuator"}
     for ch, (first, last) in raised.items():
+        if ch.kind == "surface" and ch.instance in failed_surfaces:
+            rows.append([channel_label(ch), "(servo level of the same surface)", "-",
+                         "detected", f"t={first.t_us / 1e6:.2f}", *_raise_cells(first, last)])
+            continue
         if ch not in faulty:
             result = "set lost" if first.kind is AlarmKind.SET_LOST else "FALSE ALARM"
             rows.append([channel_label(ch), "(none)", "-", result, f"t={first.t_us / 1e6:.2f}",
@@ -95,6 +102,7 @@ def markdown_table(header: list[str], rows: list[list[str]]) -> str:
 def run_demo(out: Path, *, preset: str = "demo_airdata_faults") -> int:
     from dashboards.blueprints import default_blueprint, family_views
     from gcs_monitor.config import MonitorConfig
+    from gcs_monitor.config.loader import load_config
     from gcs_monitor.link.transports import TlogSource
     from gcs_monitor.monitor import Monitor
     from gcs_monitor.sinks.journal import AlarmJournal
@@ -114,7 +122,12 @@ def run_demo(out: Path, *, preset: str = "demo_airdata_faults") -> int:
     journal_path.unlink(missing_ok=True)
     rrd = out / "recording.rrd"
     journal = AlarmJournal(journal_path)
-    cfg = MonitorConfig()
+    # the monitor configured for the airframe it watches, where the repository has one
+    # (configs/<airframe>.toml: the servo level's lever and stroke of the UAV)
+    airframe_cfg = Path(__file__).resolve().parents[1] / "configs" / f"{sc.airframe}.toml"
+    cfg = load_config(airframe_cfg) if airframe_cfg.is_file() else MonitorConfig()
+    if airframe_cfg.is_file():
+        print(f"      monitor configuration: configs/{airframe_cfg.name}")
 
     def sinks(sysid: int) -> list[Any]:
         return [RerunSink(sysid, rrd_path=rrd, plot_rate_hz=cfg.sinks.rerun_rate_hz,

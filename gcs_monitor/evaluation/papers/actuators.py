@@ -69,15 +69,19 @@ CASE_LABEL = {"solid_jam": "stuck", "stuck_at_zero": "stuck at zero",
 
 
 def actuator_config(thresholds: dict[str, float] | None = None) -> MonitorConfig:
-    """The monitor with only the actuator family, its three checks' J_th from ``thresholds``
+    """The monitor with only the actuator family's aircraft tier, its three checks' J_th from
+    ``thresholds``
     (``surface``, ``engine``, ``effectiveness``; None: thresholds no residual reaches)."""
     th = thresholds or dict.fromkeys(CHECKS, OPEN_THRESHOLD)
-    base = MonitorConfig().with_family("imu", enabled=False).with_family("airdata",
-                                                                          enabled=False)
-    ac = base.family("actuators").aircraft
+    base = MonitorConfig().with_family("imu", enabled=False).with_family(
+        "airdata", enabled=False).with_family("yaw_rate", enabled=False)
+    fam = base.family("actuators")
+    ac = fam.aircraft
     fdi = dataclasses.replace(
         ac.fdi, **{k: dataclasses.replace(getattr(ac.fdi, k), threshold=th[k]) for k in CHECKS})
-    return base.with_family("actuators", aircraft=dataclasses.replace(ac, fdi=fdi))
+    # the aircraft tier alone: the servo tier's campaign is lu2017_campaign
+    return base.with_family("actuators", aircraft=dataclasses.replace(ac, fdi=fdi),
+                            servo=dataclasses.replace(fam.servo, enabled=False))
 
 
 # ------------------------------------------------------------------------------------------------
