@@ -59,6 +59,7 @@ def fault_channels(instance: int) -> tuple[ChannelId, ...]:
 _EULER_CHANNELS = (
     ChannelId("euler", 0, "phi"), ChannelId("euler", 0, "theta"), ChannelId("euler", 0, "psi"),
 )  # fmt: skip
+_ANGLE_ROWS = (3, 5)  # phi and psi wrap at +-pi; theta stays within +-pi/2
 RESIDUAL_CHANNELS_GS = (
     ChannelId("gps_vel", 0, "n"), ChannelId("gps_vel", 0, "e"), ChannelId("gps_vel", 0, "d"),
 ) + _EULER_CHANNELS  # fmt: skip
@@ -269,6 +270,8 @@ class ImuTwoStageEstimator:
             s = replace(s, Qf=self.qf0(dt_s))
         y = y.copy()
         y[5] = s.x[5] + _wrap_pi(y[5] - s.x[5])  # heading innovation across +-pi
+        if abs(y[3] - s.x[3]) > math.pi:  # roll across +-pi (a vehicle on its back)
+            y[3] = s.x[3] + _wrap_pi(y[3] - s.x[3])
         noise, extra = self._noise, None
         u_l = u_m.tolist()
         if cfg.gate.enabled and self._u_prev2 is not None:
@@ -291,13 +294,17 @@ class ImuTwoStageEstimator:
             self.reset()
             est = self._estimate(frame.t_us, s, u_m, innov.nu, False)
             return est
-        if abs(new.x[5]) > math.pi:  # keep psi in (-pi, pi]; a 2 pi shift leaves P unchanged
+        if abs(new.x[5]) > math.pi or abs(new.x[3]) > math.pi:
+            # keep phi and psi in (-pi, pi]; a 2 pi shift leaves P unchanged
             shift = np.zeros(6)
-            shift[5] = _wrap_pi(new.x[5]) - new.x[5]
+            for i in _ANGLE_ROWS:
+                shift[i] = _wrap_pi(new.x[i]) - new.x[i]
             new = replace(new, x_bar=new.x_bar + shift, x=new.x + shift)
         self._state = new
         r = (y - new.x).tolist()
         r[5] = _wrap_pi(r[5])  # y[5] was unwrapped against the previous state, new.x may wrap
+        if abs(r[3]) > math.pi:
+            r[3] = _wrap_pi(r[3])
         self._r_prev = r
         est = self._estimate(frame.t_us, new, u_m, innov.nu, True, innov.test_ratio)
         if why:

@@ -176,3 +176,33 @@ def test_compiled_hot_path_equals_plain_two_stage_step(run100: SynthRun) -> None
         assert a.faults == b.faults and a.residuals == b.residuals and a.virtual == b.virtual
         for k in a.states:
             np.testing.assert_array_equal(a.states[k], b.states[k])
+
+
+def test_roll_wraps_without_glitch_on_a_vehicle_rolling_past_inverted() -> None:
+    """A vehicle rolling through +-pi (a copter flipping over in a crash, erle_copter_16.BIN's
+    last second): the roll innovation is taken across +-pi as the heading's is, so the 2 pi
+    jump of the reported roll is no 6.28 rad innovation (891071x the noise model before)."""
+    from gcs_monitor.core.atmosphere import gravity_mps2
+    from gcs_monitor.core.frames import dcm_ned_frd
+
+    lat, alt = 0.9, 100.0
+    g = gravity_mps2(lat, alt)
+    p_radps, dt_us = 1.0, 20_000  # 50 Hz
+    est = ImuTwoStageEstimator()
+    phi_res, faults = [], []
+    for k in range(500):  # 10 s: roll from 0 through pi at t = pi s and on
+        t_us = k * dt_us
+        phi = p_radps * t_us * 1e-6
+        phi_reported = math.remainder(phi, 2.0 * math.pi)  # ATTITUDE roll in (-pi, pi]
+        # unaccelerated body: specific force = -g rotated into FRD
+        f_frd = dcm_ned_frd(phi, 0.0, 0.0).T @ np.array([0.0, 0.0, -g])
+        fr = _frame(t_us, imu=[ImuSample(t_us, 0, f_frd, np.array([p_radps, 0.0, 0.0]))],
+                    euler_rad=np.array([phi_reported, 0.0, 0.0]), lat_rad=lat, alt_msl_m=alt,
+                    gps_vel_ned_mps=np.array([5.0, 0.0, 0.0]))
+        e = est.step(fr)
+        assert e.available and e.numerics_ok
+        phi_res.append(e.residuals.get(ChannelId("euler", 0, "phi"), 0.0))
+        faults.append([e.faults[c] for c in FAULT_CHANNELS])
+    assert np.max(np.abs(phi_res)) < 1e-3  # rad: noise-free input, no 2 pi glitch
+    f = np.abs(np.array(faults))
+    assert np.max(f[:, :3]) < 0.01 and np.max(f[:, 3:]) < 1e-3  # no spurious fault
