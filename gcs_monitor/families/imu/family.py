@@ -41,6 +41,7 @@ US_PER_S = 1_000_000
 # IMU rates the estimators are valid for (their discretisation follows the measured step; below
 # 10 Hz the attitude kinematics between samples is not resolved; docs/results.md, rate sweep)
 RATE_HZ = (10.0, 400.0)
+GPS_FIX_3D = 3  # GPS_RAW_INT fix_type of a 3D fix: the velocity is used from it on
 NO_DATA_PERIODS = 3.0  # an IMU instance is silent after this many of its own periods at least
 
 
@@ -122,6 +123,7 @@ class ImuFamily:
         self._consistency: dict[str, _Consistency] = {}
         self._gate2 = cfg.ts.estimator.filter.gate_sigma ** 2
         self._inputs = False  # attitude and GPS velocity have been in the telemetry
+        self._seen_att = self._seen_gps = False
         # no-data check of every IMU instance: last sample time, alarm
         self._no_data_us = round(cfg.no_data_window_s * US_PER_S)
         self._last_sample: dict[int, int] = {}
@@ -180,7 +182,9 @@ class ImuFamily:
     def _judge(self, frame: Frame, prediction: list[Estimate]) -> Verdict:
         t_us = frame.t_us
         if not self._inputs:
-            self._inputs = frame.euler_rad is not None and frame.gps_vel_ned_mps is not None
+            self._seen_att = self._seen_att or frame.euler_rad is not None
+            self._seen_gps = self._seen_gps or frame.gps_vel_ned_mps is not None
+            self._inputs = self._seen_att and self._seen_gps
         inputs = self._inputs and bool(self._est)  # no estimator enabled: nothing to judge
         verdict = Verdict(FamilyStatus(self.name, t_us, False, reason="no estimator enabled",
                                        inputs=inputs))
@@ -226,11 +230,28 @@ class ImuFamily:
             self._judge_channels(t_us, j, e, judged, verdict, statuses)
         if judged_any:
             verdict.status = FamilyStatus(self.name, t_us, True, inputs=inputs)
+        elif self._est and not self._inputs:
+            # a monitor that cannot judge says why: which input the telemetry never carried
+            verdict.status = FamilyStatus(self.name, t_us, False, reason=self._missing(frame),
+                                          inputs=False)
         elif reasons:
             verdict.status = FamilyStatus(self.name, t_us, False,
                                           reason="; ".join(dict.fromkeys(reasons)),
                                           inputs=inputs)
         return verdict
+
+    def _missing(self, frame: Frame) -> str:
+        """Which of the family's inputs the telemetry has not carried yet (all estimators
+        need attitude and GPS velocity; GLOBAL_POSITION_INT's velocity counts only with a 3D
+        fix)."""
+        out = []
+        if not self._seen_gps:
+            fix = frame.gps_fix
+            out.append(f"no GPS velocity: GPS without a 3D fix (fix type {fix})"
+                       if 0 <= fix < GPS_FIX_3D else "no GPS velocity in the telemetry")
+        if not self._seen_att:
+            out.append("no attitude in the telemetry")
+        return "; ".join(out)
 
     def _instances(self, frame: Frame) -> list[AlarmEvent]:
         """No-data check of every IMU instance that has delivered: silent for

@@ -44,6 +44,7 @@ log = logging.getLogger(__name__)
 
 _DEG = math.pi / 180.0
 US_PER_S = 1_000_000
+GPS_FIX_3D = 3  # GPS_RAW_INT fix_type of a 3D fix
 FAULT_CHANNELS = (
     ChannelId("acc", 0, "x"), ChannelId("acc", 0, "y"), ChannelId("acc", 0, "z"),
     ChannelId("gyro", 0, "p"), ChannelId("gyro", 0, "q"), ChannelId("gyro", 0, "r"),
@@ -234,12 +235,20 @@ class ImuTwoStageEstimator:
             self._channels = fault_channels(inst)
         if frame.euler_rad is None or frame.att_age_s > cfg.max_att_age_s:
             return Estimate.unavailable(self.name, frame.t_us, "attitude missing or stale")
-        if not (math.isfinite(frame.lat_rad) and math.isfinite(frame.alt_msl_m)):
+        geo = math.isfinite(frame.lat_rad) and math.isfinite(frame.alt_msl_m)
+        if not geo and cfg.model == "as":  # the AS-KM measurement needs the altitude (TAS)
             return Estimate.unavailable(self.name, frame.t_us, "latitude/altitude missing")
         y = self._measurement(frame)
         if y is None:
-            what = "gps velocity" if cfg.model == "gs" else "air data (cas, aoa, ssa)"
-            return Estimate.unavailable(self.name, frame.t_us, f"{what} missing or stale")
+            if cfg.model == "as":
+                why = "air data (cas, aoa, ssa) missing or stale"
+            elif 0 <= frame.gps_fix < GPS_FIX_3D:
+                why = f"gps velocity missing: no 3D fix (GPS fix type {frame.gps_fix})"
+            else:
+                why = "gps velocity missing or stale"
+            return Estimate.unavailable(self.name, frame.t_us, why)
+        if not geo:  # GS-KM: position comes with the GPS velocity; a bad field alone
+            return Estimate.unavailable(self.name, frame.t_us, "latitude/altitude missing")
         u_m = np.concatenate([imu.acc_frd_mps2, imu.omega_frd_radps])
         if not _all_finite(u_m):
             return Estimate.unavailable(self.name, frame.t_us, "imu sample not finite")
