@@ -11,7 +11,9 @@ FRD body frame, time in seconds. Frame and unit fixes follow shared/data/real/RE
 * OnSpeed/VN-300 CSV (50 Hz): VN-300 specific force (z down) and rates as IMU 0; OnSpeed's
   internal IMU as IMU 1 (g -> m/s^2, deg/s -> rad/s, RollRate sign flipped: it is opposite to the
   VN-300, corr -0.97). Attitude from the VN-300 Euler angles. GPS velocity from the raw 5 Hz GNSS
-  velocity, emitted only when it changes (it is held between updates in the file). IAS (kt) is
+  velocity, emitted only when it changes (it is held between updates in the file), stamped at its
+  measurement instant: the receiver's latency behind the IMU is measured from the file
+  (:mod:`gcs_monitor.convert.alignment`; 0.1-0.2 s). IAS (kt) is
   taken as CAS for AIRSPEED instance 0; AngleofAttack (deg) as vane 0.
 * ALFA CSVs (20 Hz grid, ROS FLU/ENU): FLU -> FRD is (x, -y, -z) for both specific force and
   rates; ENU -> NED velocity is (y, x, -z); the orientation quaternion (x, y, z, w missing) is
@@ -31,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
+from gcs_monitor.convert.alignment import gnss_velocity_lag_s
 from gcs_monitor.core.frames import dcm_from_quat, euler_from_dcm
 from gcs_monitor.core.types import Mat, Vec
 from gcs_monitor.core.units import DEG2RAD, FPM2MPS, FT2M, G2MPS2, HPA2PA, KT2MPS
@@ -151,17 +154,26 @@ def read_onspeed(path: Path) -> Flight:
     changed = np.ones(len(t), dtype=bool)
     changed[1:] = np.any(np.diff(gv, axis=0) != 0.0, axis=1)
     alt = c["Altitude"] * FT2M
+    # raw GNSS velocity: the receiver's latency is measured against the VN-300 IMU and the
+    # samples are stamped at their measurement instant (alignment.py)
+    ok = np.all(np.isfinite(acc0), axis=1) & np.all(np.isfinite(euler), axis=1)
+    eul_u = euler[ok].copy()
+    eul_u[:, 2] = np.unwrap(eul_u[:, 2])
+    gok = changed & np.all(np.isfinite(gv), axis=1)
+    lag = gnss_velocity_lag_s(t[ok], acc0[ok], eul_u, t[gok], gv[gok])
+    changed &= t - lag.lag_s >= t[0]  # a sample measured before the file starts is left out
     return Flight(
         name=path.stem, fmt="onspeed", t_s=t, acc_frd_mps2=[acc0, acc1],
         omega_frd_radps=[omg0, omg1], euler_rad=euler,
-        gps_t_s=t[changed], gps_vel_ned_mps=gv[changed],
+        gps_t_s=t[changed] - lag.lag_s, gps_vel_ned_mps=gv[changed],
         lat_rad=c["vnGnssLat"][changed] * DEG2RAD, lon_rad=c["vnGnssLon"][changed] * DEG2RAD,
         alt_m=alt[changed],
         air_t_s=t, cas_mps=c["IAS"] * KT2MPS, aoa_rad=c["AngleofAttack"] * DEG2RAD,
         baro_alt_m=c["Palt"] * FT2M, climb_mps=c["VSI"] * FPM2MPS,
         static_pressure_pa=c["PStatic"] * HPA2PA, oat_k=c["OAT"] + 273.15,
         notes=["IMU0 = VN-300 (rates quantised to 0.01 rad/s), IMU1 = OnSpeed internal "
-               "(RollRate sign flipped)", "IAS taken as CAS"],
+               "(RollRate sign flipped)", "IAS taken as CAS",
+               lag.note("VN-300 GNSS velocity")],
     )
 
 

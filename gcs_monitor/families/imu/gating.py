@@ -109,7 +109,8 @@ def intra_sample_input_var(u_km2: Vec, u_km1: Vec, u_k: Vec, sigma: Vec, gate_si
 
 
 def step_bound(s_diag: Sequence[float], extra_input_var: Sequence[float], dt_s: float,
-               gate_sigma: float, fault_step_max: float) -> float:
+               gate_sigma: float, fault_step_max: float, *,
+               held_var: Sequence[float] = ()) -> float:
     """Largest one-step increment mismatch (norm) an IMU fault can explain.
 
     ``gate_sigma sqrt(2 tr S + dt^2 sum(extra_input_var)) + dt fault_step_max``: the increment
@@ -124,8 +125,12 @@ def step_bound(s_diag: Sequence[float], extra_input_var: Sequence[float], dt_s: 
     s_diag : (3,) innovation variances of the group's rows
     extra_input_var : (3,) extra input variance of this step (:func:`intra_sample_input_var`)
     dt_s : sample interval (s)
+    held_var : (3,) extra variance of the previous measurement of the group when it was a held
+        value (a measurement of an earlier instant; imu_ts: the attitude's ``(rate x age)^2``):
+        the increment is taken from it
     """
-    noise = 2.0 * math.fsum(s_diag) + dt_s * dt_s * math.fsum(extra_input_var)
+    noise = (2.0 * math.fsum(s_diag) + dt_s * dt_s * math.fsum(extra_input_var)
+             + math.fsum(held_var))
     return gate_sigma * math.sqrt(noise) + dt_s * fault_step_max
 
 
