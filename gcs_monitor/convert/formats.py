@@ -4,8 +4,9 @@ Every reader returns a :class:`Flight`: uniformly documented arrays, SI units, N
 FRD body frame, time in seconds. Frame and unit fixes follow shared/data/real/README.md:
 
 * Zipline launch CSVs (50 Hz): already NED/FRD SI. ``accel_body_mps2`` is specific force. The
-  estimator reset at t = 7.4-8.9 s (position/velocity jump) is masked: no GPS velocity is emitted
-  there (the monitor then holds/ages it). There is no lat/lon: the documented origin is the
+  estimator reset at t = 7.94 s since launch (position/velocity jump) is masked (no GPS velocity
+  is emitted over 7.4-8.9 s) for ``convert`` only; read as a log (``read_messages``) the velocity
+  is as recorded, and the monitor's step gate attributes the jump to the reference. There is no lat/lon: the documented origin is the
   Muhanga distribution centre (-2.0767, 29.7376), altitude 1,700 m, which only sets the GS-KM's
   earth-rate and gravity terms.
 * OnSpeed/VN-300 CSV (50 Hz): VN-300 specific force (z down) and rates as IMU 0; OnSpeed's
@@ -102,7 +103,11 @@ def _columns(path: Path, header: list[str], rows: list[list[str]], names: list[s
     return out
 
 
-def read_zipline(path: Path) -> Flight:
+def read_zipline(path: Path, *, mask_reset: bool = True) -> Flight:
+    """A Zipline launch CSV. ``mask_reset``: emit no velocity over the documented estimator
+    reset (7.4-8.9 s after launch), as the Lu2016 open-loop reproduction wants it
+    (``convert``); the log reader (replay, real_flights, calibrate) gives the velocity as
+    recorded, and the monitor's step gate attributes the jump to the reference."""
     header, rows = _read_csv(path)
     cols = (["seconds_since_launch"]
             + [f"velocity_ned_mps[{i}]" for i in range(3)]
@@ -114,6 +119,8 @@ def read_zipline(path: Path) -> Flight:
     a = a[np.all(np.isfinite(a), axis=1)]
     t = a[:, 0] - a[0, 0]
     keep_gps = ~((a[:, 0] >= ZIPLINE_RESET_MASK_S[0]) & (a[:, 0] <= ZIPLINE_RESET_MASK_S[1]))
+    if not mask_reset:
+        keep_gps[:] = True
     lat0, lon0 = (x * DEG2RAD for x in ZIPLINE_ORIGIN_DEG)
     from gcs_monitor.core.constants import EARTH_RADIUS_M
 
@@ -126,8 +133,10 @@ def read_zipline(path: Path) -> Flight:
         acc_frd_mps2=[a[:, 4:7]], omega_frd_radps=[a[:, 10:13]], euler_rad=a[:, 7:10],
         gps_t_s=t[keep_gps], gps_vel_ned_mps=a[keep_gps, 1:4],
         lat_rad=lat[keep_gps], lon_rad=lon[keep_gps], alt_m=alt[keep_gps],
-        notes=[f"t0 = {a[0, 0]:.3f} s since launch; GPS velocity masked over "
-               f"{ZIPLINE_RESET_MASK_S} s since launch (estimator reset)"],
+        notes=[f"t0 = {a[0, 0]:.3f} s since launch; " + (
+            f"GPS velocity masked over {ZIPLINE_RESET_MASK_S} s since launch (estimator reset)"
+            if mask_reset else "velocity as recorded (its estimator resets at 7.94 s since "
+            "launch: a velocity and attitude jump)")],
     )
 
 

@@ -20,6 +20,7 @@ from gcs_monitor.core.kernels import load_kernels
 from gcs_monitor.core.params import param, section
 from gcs_monitor.core.types import ChannelId, Mat, Vec
 from gcs_monitor.families.imu.gating import (
+    SQRT2,
     SQRT6,
     GateConfig,
     GateDecision,
@@ -189,6 +190,9 @@ class ImuTwoStageEstimator:
             gate_sigma=self.cfg.filter.gate_sigma,
         )
         self._d2_floor = [self.cfg.gate.gate_sigma * SQRT6 * x for x in sig_u]  # gating item 1
+        # its sample-timing term (first difference), unless turned off
+        self._d1_floor = ([self.cfg.gate.gate_sigma * SQRT2 * x for x in sig_u]
+                          if self.cfg.gate.sample_timing else [])
         # velocity rows 0-2 and Euler rows 3-5 are gated separately (gating.py item 2)
         self._gates = (MeasurementStepGate(self.cfg.gate), MeasurementStepGate(self.cfg.gate))
         self._state: TwoStageState | None = None
@@ -302,7 +306,8 @@ class ImuTwoStageEstimator:
         u_l = u_m.tolist()
         if cfg.gate.enabled and self._u_prev2 is not None:
             # gating.py item 1: unresolved intra-sample input profile is process noise (eq. 56)
-            extra = intra_sample_excess_var(self._u_prev2, self._u_prev_l, u_l, self._d2_floor)
+            extra = intra_sample_excess_var(self._u_prev2, self._u_prev_l, u_l, self._d2_floor,
+                                            self._d1_floor)
             if extra is not None:
                 noise = TwoStageNoise(Q=self._noise.Q + np.diag(extra), R=self._noise.R)
         held_prev = self._att_held_var
@@ -380,7 +385,8 @@ class ImuTwoStageEstimator:
         u_l = u_m.tolist()
         noise = self._noise
         if cfg.gate.enabled and self._u_prev2 is not None:
-            extra = intra_sample_excess_var(self._u_prev2, self._u_prev_l, u_l, self._d2_floor)
+            extra = intra_sample_excess_var(self._u_prev2, self._u_prev_l, u_l, self._d2_floor,
+                                            self._d1_floor)
             if extra is not None:
                 noise = TwoStageNoise(Q=self._noise.Q + np.diag(extra), R=self._noise.R)
         new = two_stage_predict(s, self._model(frame), self._u_prev, u_m, dt_s, noise)
