@@ -202,6 +202,7 @@ class ImuTwoStageEstimator:
         self._r_prev = [0.0] * 6  # previous measured minus estimated output (gates)
         self._t_prev_us = 0
         self._t_meas_us = 0  # vehicle time of the last measurement update
+        self._rejected = False  # the step gate rejected rows of this sample
         # extra attitude variance of the last measurement when it was a held sample
         self._att_held_var: tuple[float, ...] = ()
         self._period = SamplePeriod()  # of its usable samples: gap limit, re-anchoring
@@ -322,6 +323,7 @@ class ImuTwoStageEstimator:
         else:
             new, innov = two_stage_step(s, model, self._u_prev, u_m, y, dt_s, noise, self._fcfg)
         why = ""
+        self._rejected = False
         if cfg.gate.enabled and cfg.model == "gs" and innov.numerics_ok:
             why, new, innov = self._gated(s, model, u_m, y, dt_s, noise, extra, new, innov,
                                           dt_meas_s, held_prev)
@@ -344,7 +346,10 @@ class ImuTwoStageEstimator:
         if abs(r[3]) > math.pi:
             r[3] = _wrap_pi(r[3])
         self._r_prev = r
-        est = self._estimate(frame.t_us, new, u_m, innov.nu, True, innov.test_ratio)
+        # a sample the step gate rejected is a reference step, not noise: its test ratios do
+        # not enter the noise-model consistency check (family.py)
+        est = self._estimate(frame.t_us, new, u_m, innov.nu, True,
+                             None if self._rejected else innov.test_ratio)
         if why:
             return replace(est, reinit=why, reinit_warmup_s=cfg.reanchor_warmup_s)
         return est
@@ -500,6 +505,7 @@ class ImuTwoStageEstimator:
             decisions.append(gate.decide(nu[a:b], r[a:b], bound))
         if all(d is GateDecision.ACCEPT for d in decisions):
             return "", new, innov
+        self._rejected = True
         # no information from the rejected rows this sample: the measurement is replaced by the
         # prediction (zero innovation); the real innovation is still reported
         y_pred = y.copy()
