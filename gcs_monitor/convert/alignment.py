@@ -20,9 +20,9 @@ logged attitude, plus gravity, is integrated. Its increments over about 1 s are 
 the GNSS velocity's increments at trial lags. A constant per axis per increment (an
 accelerometer bias, a gravity error) is removed by least squares. The lag with the smallest
 trimmed residual wins. The readers of raw receiver velocity (DataFlash ``GPS``, the OnSpeed
-VN-300 GNSS columns) shift the GNSS time stamps back by it and say so in the log's notes. Velocities that
-are an estimator's output (Zipline, ALFA, PX4 ``vehicle_local_position``) already fit at lag 0 and
-are not shifted.
+VN-300 GNSS columns, PX4 ``vehicle_gps_position``) shift the GNSS time stamps back by it and
+say so in the log's notes. Velocities that are an estimator's output (Zipline, ALFA, PX4
+``vehicle_local_position``) already fit at lag 0 and are not shifted.
 
 :func:`clock_rate` measures the log's boot clock against GPS time (the receiver's time of week
 advances at the true rate). A crystal is within 1e-4. A boot clock that runs 8 % slow (the

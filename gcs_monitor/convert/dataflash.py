@@ -26,14 +26,16 @@ measurement. Three corrections make it comparable, each measured from the log an
 ``LogInfo.notes`` (:mod:`gcs_monitor.convert.alignment`):
 
 * a GPS record whose GPS time (``GMS``/``GWk``, old ``TimeMS``/``Week``) does not advance is the
-  previous solution logged again (erle_copter_loiter_rtl.bin: 112 of 992), no new measurement:
+  previous solution logged again (erle_copter_loiter_rtl.bin: 111 of 992), no new measurement:
   dropped;
 * a boot clock whose rate against GPS time is off by more than a crystal can be
-  (:func:`~gcs_monitor.convert.alignment.clock_rate`; the same log: 0.917) is rescaled onto GPS
+  (:func:`~gcs_monitor.convert.alignment.clock_rate`; the same log: 0.923) is rescaled onto GPS
   time for every stream, so that IMU intervals are true intervals;
-* the GPS velocity's lag behind the IMU (receiver latency, 0.20 s in erle_copter_16.BIN) is
-  measured and the GPS records are stamped at their measurement instant. VFR_HUD airspeed: CTUN's airspeed (ArduPlane's own estimate), else the first
-airspeed sensor, else GPS ground speed (as ArduCopter fills it).
+* the GPS velocity's lag behind the IMU (receiver latency, 0.19 s in erle_copter_16.BIN) is
+  measured and the GPS records are stamped at their measurement instant.
+
+VFR_HUD airspeed: CTUN's airspeed (ArduPlane's own estimate), else the first airspeed sensor,
+else GPS ground speed (as ArduCopter fills it).
 """
 
 from __future__ import annotations

@@ -6,9 +6,9 @@ FRD body frame, time in seconds. Frame and unit fixes follow shared/data/real/RE
 * Zipline launch CSVs (50 Hz): already NED/FRD SI. ``accel_body_mps2`` is specific force. The
   estimator reset at t = 7.94 s since launch (position/velocity jump) is masked (no GPS velocity
   is emitted over 7.4-8.9 s) for ``convert`` only; read as a log (``read_messages``) the velocity
-  is as recorded, and the monitor's step gate attributes the jump to the reference. There is no lat/lon: the documented origin is the
-  Muhanga distribution centre (-2.0767, 29.7376), altitude 1,700 m, which only sets the GS-KM's
-  earth-rate and gravity terms.
+  is as recorded, and the monitor's step gate attributes the jump to the reference. There is no
+  lat/lon: the documented origin is the Muhanga distribution centre (-2.0767, 29.7376),
+  altitude 1,700 m, which only sets the GS-KM's earth-rate and gravity terms.
 * OnSpeed/VN-300 CSV (50 Hz): VN-300 specific force (z down) and rates as IMU 0; OnSpeed's
   internal IMU as IMU 1 (g -> m/s^2, deg/s -> rad/s, RollRate sign flipped: it is opposite to the
   VN-300, corr -0.97). Attitude from the VN-300 Euler angles. GPS velocity from the raw 5 Hz GNSS
