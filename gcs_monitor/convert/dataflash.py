@@ -22,8 +22,20 @@ only the types below are decoded). Old (``TimeMS``, ``IMU2``, ``ASP2``, ``Ch1``)
 Time: ``TimeUS`` (µs since boot), else ``TimeMS`` × 1000; the old GPS message's ``TimeMS`` is
 GPS time of week, its boot time is ``T``. GPS velocity is the receiver's (speed over ground,
 course, vertical speed), not the EKF's: the IMU family compares the IMU against an independent
-measurement. VFR_HUD airspeed: CTUN's airspeed (ArduPlane's own estimate), else the first
-airspeed sensor, else GPS ground speed (as ArduCopter fills it).
+measurement. Three corrections make it comparable, each measured from the log and noted in
+``LogInfo.notes`` (:mod:`gcs_monitor.convert.alignment`):
+
+* a GPS record whose GPS time (``GMS``/``GWk``, old ``TimeMS``/``Week``) does not advance is the
+  previous solution logged again (erle_copter_loiter_rtl.bin: 111 of 992), no new measurement:
+  dropped;
+* a boot clock whose rate against GPS time is off by more than a crystal can be
+  (:func:`~gcs_monitor.convert.alignment.clock_rate`; the same log: 0.923) is rescaled onto GPS
+  time for every stream, so that IMU intervals are true intervals;
+* the GPS velocity's lag behind the IMU (receiver latency, 0.19 s in erle_copter_16.BIN) is
+  measured and the GPS records are stamped at their measurement instant.
+
+VFR_HUD airspeed: CTUN's airspeed (ArduPlane's own estimate), else the first airspeed sensor,
+else GPS ground speed (as ArduCopter fills it).
 """
 
 from __future__ import annotations
@@ -38,6 +50,7 @@ from typing import Any
 import numpy as np
 
 from gcs_monitor.convert import encode as enc
+from gcs_monitor.convert.alignment import clock_rate, clock_wrong, gnss_velocity_lag_s
 from gcs_monitor.convert.logbase import LogError, LogInfo, Messages, block_means, log_error
 from gcs_monitor.core.constants import (
     GRAVITY_STD_MPS2,
@@ -209,6 +222,38 @@ def _time_us(tab: Table, *, gps: bool = False) -> np.ndarray:
     return np.full(len(tab["pos"]), -1, dtype=np.int64)
 
 
+GPS_WEEK_S = 604_800.0
+GPS_TIME_JUMP_S = 60.0  # a GPS time step beyond this (or back) starts a new run of records
+
+
+def _gps_time_s(tab: Table) -> np.ndarray | None:
+    """GPS time (s since the GPS epoch) of each GPS record, NaN where not valid (0); None when
+    the log's GPS message has no GPS time."""
+    if "GMS" in tab:
+        ms, wk = tab["GMS"], _col(tab, "GWk")
+    elif "T" in tab and "TimeMS" in tab:  # old names: TimeMS is GPS ms of week, T boot ms
+        ms, wk = tab["TimeMS"], _col(tab, "Week")
+    else:
+        return None
+    wk = np.nan_to_num(wk)
+    out = ms * 1e-3 + wk * GPS_WEEK_S
+    return np.where(ms > 0, out, np.nan)
+
+
+def _longest_run(t_gnss: np.ndarray, t_boot: np.ndarray) -> np.ndarray:
+    """Indices of the longest run of records whose GPS and boot times both advance (a GPS time
+    reset or a reboot starts a new run)."""
+    ok = np.isfinite(t_gnss)
+    idx = np.flatnonzero(ok)
+    if len(idx) < 2:
+        return idx
+    dg = np.diff(t_gnss[idx])
+    db = np.diff(t_boot[idx])
+    cut = np.flatnonzero((dg <= 0) | (dg > GPS_TIME_JUMP_S) | (db <= 0)) + 1
+    runs = np.split(idx, cut)
+    return max(runs, key=len)
+
+
 def _instances(tab: Table, default: int) -> np.ndarray:
     if "I" in tab:
         return tab["I"].astype(np.int64)
@@ -311,10 +356,59 @@ _K_IMU, _K_ATT, _K_ATT_SP, _K_GPS, _K_ASPD, _K_AOA, _K_BARO, _K_RCOU, _K_CTUN, _
 Stream = tuple[int, np.ndarray, np.ndarray, list[list[float]]]
 
 
+def _gps_records(tables: dict[str, Table], info: LogInfo) -> tuple[np.ndarray, np.ndarray,
+                                                                  Any]:
+    """GPS instance 0: (row mask of new solutions, boot time µs, boot-clock fix). Records
+    whose GPS time does not advance are dropped; the boot clock's rate against GPS time is
+    measured and, when no crystal could be that far off, a fix ``t_us -> t_us`` onto GPS time
+    is returned for every stream (module docstring)."""
+    tab = tables["GPS"]
+    first = _instances(tab, 0) == 0
+    t = _time_us(tab, gps=True)
+    tg = _gps_time_s(tab)
+    keep = first.copy()
+    fix = None
+    if tg is not None:
+        tg = np.where(first, tg, np.nan)
+        # the same solution logged again: its GPS time did not advance
+        prev = -np.inf
+        rep = 0
+        for i in np.flatnonzero(first & np.isfinite(tg)).tolist():
+            if tg[i] <= prev:
+                keep[i] = False
+                rep += 1
+            else:
+                prev = tg[i]
+        if rep:
+            info.notes.append(f"GPS: {rep} records repeat the previous solution (GPS time "
+                              "not advancing): dropped")
+        run = _longest_run(np.where(keep & (_col(tab, "Status") >= GPS_FIX_3D), tg, np.nan),
+                           t.astype(np.float64))
+        rate = clock_rate(t[run] * 1e-6, tg[run]) if len(run) else math.nan
+        if clock_wrong(rate):
+            t_ref = int(t[run[0]])
+
+            def fix(x: np.ndarray, t_ref: int = t_ref, rate: float = rate) -> np.ndarray:
+                return (t_ref + np.round((x - t_ref) / rate)).astype(np.int64)
+
+            info.warnings.append(f"the log's boot clock runs at {rate:.4f} of GPS time (no "
+                                 "crystal is off by more than 1e-4): every time stamp "
+                                 "rescaled onto GPS time")
+    return keep, t, fix
+
+
 def _emit(tables: dict[str, Table], info: LogInfo, mav_type: int, imu_rate_hz: float,
           setpoint_rate_hz: float) -> Messages:
     streams: list[Stream] = []
     skipped = 0
+    gps_keep, gps_t, clock_fix = (_gps_records(tables, info) if "GPS" in tables
+                                  else (None, None, None))
+
+    def tus(tab: Table, *, gps: bool = False) -> np.ndarray:
+        t = _time_us(tab, gps=gps)
+        if clock_fix is None or not len(t):
+            return t
+        return np.where(t >= 0, clock_fix(t), t)  # -1: no time stamp, skipped by add()
 
     def add(kind: int, t: np.ndarray, pos: np.ndarray, cols: list[np.ndarray],
             required: int | None = None) -> None:
@@ -332,7 +426,7 @@ def _emit(tables: dict[str, Table], info: LogInfo, mav_type: int, imu_rate_hz: f
         tab = tables.get(name)
         if tab is None:
             continue
-        t = _time_us(tab)
+        t = tus(tab)
         inst = _instances(tab, default)
         v = np.column_stack([_col(tab, c) for c in ("AccX", "AccY", "AccZ", "GyrX", "GyrY",
                                                      "GyrZ")])
@@ -347,7 +441,7 @@ def _emit(tables: dict[str, Table], info: LogInfo, mav_type: int, imu_rate_hz: f
             add(_K_IMU, ti, pi, [np.full(len(ti), float(i))] + [vi[:, k] for k in range(6)])
     if "ATT" in tables:
         tab = tables["ATT"]
-        t = _time_us(tab)
+        t = tus(tab)
         add(_K_ATT, t, tab["pos"], [_col(tab, "Roll") * DEG2RAD, _col(tab, "Pitch") * DEG2RAD,
                                     _col(tab, "Yaw") * DEG2RAD])
         k = decimate(t, setpoint_rate_hz)
@@ -357,46 +451,53 @@ def _emit(tables: dict[str, Table], info: LogInfo, mav_type: int, imu_rate_hz: f
                                                  _col(tab, "DesYaw")[k] * DEG2RAD])
     if "GPS" in tables:
         tab = tables["GPS"]
-        first = _instances(tab, 0) == 0
-        t = _time_us(tab, gps=True)[first]
+        first = gps_keep
+        assert first is not None
+        t = tus(tab, gps=True)[first]
+        spd, crs = _col(tab, "Spd")[first], _col(tab, "GCrs")[first] * DEG2RAD
+        vz = np.nan_to_num(_col(tab, "VZ")[first])
+        lag = _gps_lag(streams, t, np.column_stack([spd * np.cos(crs), spd * np.sin(crs), vz]),
+                       _col(tab, "Status")[first])
+        if lag is not None:
+            info.notes.append(lag.note("GPS velocity"))
+            t = t - int(round(lag.lag_s * 1e6))
         add(_K_GPS, t, tab["pos"][first],
             [_col(tab, "Status")[first], _col(tab, "Lat")[first] * DEG2RAD,
-             _col(tab, "Lng")[first] * DEG2RAD, _col(tab, "Alt")[first],
-             _col(tab, "Spd")[first], _col(tab, "GCrs")[first] * DEG2RAD,
-             np.nan_to_num(_col(tab, "VZ")[first]), np.nan_to_num(_col(tab, "RelAlt")[first]),
+             _col(tab, "Lng")[first] * DEG2RAD, _col(tab, "Alt")[first], spd, crs, vz,
+             np.nan_to_num(_col(tab, "RelAlt")[first]),
              np.nan_to_num(_col(tab, "NSats")[first], nan=255.0)])
     for name, default in ASPD_TYPES.items():
         tab = tables.get(name)
         if tab is not None:
-            add(_K_ASPD, _time_us(tab), tab["pos"],
+            add(_K_ASPD, tus(tab), tab["pos"],
                 [_instances(tab, default).astype(np.float64), _col(tab, "Airspeed"),
                  _col(tab, "Temp") + 273.15, _col(tab, "DiffPress")], required=2)
     if "AOA" in tables:
         tab = tables["AOA"]
-        add(_K_AOA, _time_us(tab), tab["pos"], [_col(tab, "AOA") * DEG2RAD,
+        add(_K_AOA, tus(tab), tab["pos"], [_col(tab, "AOA") * DEG2RAD,
                                                 _col(tab, "SSA") * DEG2RAD])
     if "BARO" in tables:
         tab = tables["BARO"]
         first = _instances(tab, 0) == 0
-        add(_K_BARO, _time_us(tab)[first], tab["pos"][first],
+        add(_K_BARO, tus(tab)[first], tab["pos"][first],
             [_col(tab, "Press")[first],
              np.nan_to_num(_col(tab, "Temp")[first] + 273.15, nan=ISA_T0_K),
              np.nan_to_num(_col(tab, "CRt")[first])])
     if "RCOU" in tables:
         tab = tables["RCOU"]
-        t = _time_us(tab)
+        t = tus(tab)
         k = decimate(t, setpoint_rate_hz)
         chans = [_col(tab, f"C{i}", f"Ch{i}")[k] for i in range(1, 17)]
         add(_K_RCOU, t[k], tab["pos"][k],
             [np.where((ch >= 800.0) & (ch <= 2500.0), ch, 0.0) for ch in chans])
     if "CTUN" in tables:  # throttle always; NavRoll, NavPitch, airspeed only in ArduPlane
         tab = tables["CTUN"]
-        add(_K_CTUN, _time_us(tab), tab["pos"],
+        add(_K_CTUN, tus(tab), tab["pos"],
             [np.nan_to_num(_col(tab, "ThrOut", "ThO")), _col(tab, "NavRoll") * DEG2RAD,
              _col(tab, "NavPitch") * DEG2RAD, _col(tab, "Aspd", "As")], required=1)
     if "NTUN" in tables:
         tab = tables["NTUN"]
-        add(_K_NTUN, _time_us(tab), tab["pos"],
+        add(_K_NTUN, tus(tab), tab["pos"],
             [np.nan_to_num(_col(tab, *n)) for n in (("NavBrg",), ("TBrg",), ("Dist", "WpDist"),
                                                      ("AltE", "AltErr"), ("XT",),
                                                      ("AsE", "AspdE", "AsErr"))])
@@ -414,6 +515,26 @@ def _emit(tables: dict[str, Table], info: LogInfo, mav_type: int, imu_rate_hz: f
     info.t0_us = int(t_all[order[0]])
     info.t1_us = int(t_all[order[-1]])
     return _messages(order, kinds, sidx, rows, t_all, streams, mav_type)
+
+
+def _gps_lag(streams: list[Stream], t_gps: np.ndarray, vel_ned: np.ndarray,
+             status: np.ndarray) -> Any:
+    """The GPS velocity's lag behind IMU 0 (alignment.gnss_velocity_lag_s) from the IMU and
+    ATT streams built so far; None without them."""
+    imu = next((s for s in streams if s[0] == _K_IMU and s[3][0] and s[3][0][0] == 0.0), None)
+    att = next((s for s in streams if s[0] == _K_ATT), None)
+    ok = status >= GPS_FIX_3D
+    if imu is None or att is None or np.count_nonzero(ok) < 3:
+        return None
+    ti = imu[1] * 1e-6
+    ta = att[1] * 1e-6
+    ta, first = np.unique(ta, return_index=True)
+    eul = np.column_stack([np.unwrap(np.asarray(c, dtype=np.float64)[first]) if k == 2 else
+                           np.asarray(c, dtype=np.float64)[first]
+                           for k, c in enumerate(att[3])])
+    eul_i = np.column_stack([np.interp(ti, ta, eul[:, k]) for k in range(3)])
+    acc = np.column_stack([np.asarray(imu[3][k], dtype=np.float64) for k in (1, 2, 3)])
+    return gnss_velocity_lag_s(ti, acc, eul_i, t_gps[ok] * 1e-6, vel_ned[ok])
 
 
 def _messages(order: np.ndarray, kinds: np.ndarray, sidx: np.ndarray, rows: np.ndarray,

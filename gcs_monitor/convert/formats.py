@@ -4,14 +4,17 @@ Every reader returns a :class:`Flight`: uniformly documented arrays, SI units, N
 FRD body frame, time in seconds. Frame and unit fixes follow shared/data/real/README.md:
 
 * Zipline launch CSVs (50 Hz): already NED/FRD SI. ``accel_body_mps2`` is specific force. The
-  estimator reset at t = 7.4-8.9 s (position/velocity jump) is masked: no GPS velocity is emitted
-  there (the monitor then holds/ages it). There is no lat/lon: the documented origin is the
-  Muhanga distribution centre (-2.0767, 29.7376), altitude 1,700 m, which only sets the GS-KM's
-  earth-rate and gravity terms.
+  estimator reset at t = 7.94 s since launch (position/velocity jump) is masked (no GPS velocity
+  is emitted over 7.4-8.9 s) for ``convert`` only; read as a log (``read_messages``) the velocity
+  is as recorded, and the monitor's step gate attributes the jump to the reference. There is no
+  lat/lon: the documented origin is the Muhanga distribution centre (-2.0767, 29.7376),
+  altitude 1,700 m, which only sets the GS-KM's earth-rate and gravity terms.
 * OnSpeed/VN-300 CSV (50 Hz): VN-300 specific force (z down) and rates as IMU 0; OnSpeed's
   internal IMU as IMU 1 (g -> m/s^2, deg/s -> rad/s, RollRate sign flipped: it is opposite to the
   VN-300, corr -0.97). Attitude from the VN-300 Euler angles. GPS velocity from the raw 5 Hz GNSS
-  velocity, emitted only when it changes (it is held between updates in the file). IAS (kt) is
+  velocity, emitted only when it changes (it is held between updates in the file), stamped at its
+  measurement instant: the receiver's latency behind the IMU is measured from the file
+  (:mod:`gcs_monitor.convert.alignment`; 0.1-0.2 s). IAS (kt) is
   taken as CAS for AIRSPEED instance 0; AngleofAttack (deg) as vane 0.
 * ALFA CSVs (20 Hz grid, ROS FLU/ENU): FLU -> FRD is (x, -y, -z) for both specific force and
   rates; ENU -> NED velocity is (y, x, -z); the orientation quaternion (x, y, z, w missing) is
@@ -38,6 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
+from gcs_monitor.convert.alignment import gnss_velocity_lag_s
 from gcs_monitor.core.frames import dcm_from_quat, euler_from_dcm
 from gcs_monitor.core.types import Mat, Vec
 from gcs_monitor.core.units import DEG2RAD, FPM2MPS, FT2M, G2MPS2, HPA2PA, KT2MPS
@@ -144,7 +148,11 @@ def _columns(path: Path, header: list[str], rows: list[list[str]], names: list[s
     return out
 
 
-def read_zipline(path: Path) -> Flight:
+def read_zipline(path: Path, *, mask_reset: bool = True) -> Flight:
+    """A Zipline launch CSV. ``mask_reset``: emit no velocity over the documented estimator
+    reset (7.4-8.9 s after launch), as the Lu2016 open-loop reproduction wants it
+    (``convert``); the log reader (replay, real_flights, calibrate) gives the velocity as
+    recorded, and the monitor's step gate attributes the jump to the reference."""
     header, rows = _read_csv(path)
     cols = (["seconds_since_launch"]
             + [f"velocity_ned_mps[{i}]" for i in range(3)]
@@ -156,6 +164,8 @@ def read_zipline(path: Path) -> Flight:
     a = a[np.all(np.isfinite(a), axis=1)]
     t = a[:, 0] - a[0, 0]
     keep_gps = ~((a[:, 0] >= ZIPLINE_RESET_MASK_S[0]) & (a[:, 0] <= ZIPLINE_RESET_MASK_S[1]))
+    if not mask_reset:
+        keep_gps[:] = True
     lat0, lon0 = (x * DEG2RAD for x in ZIPLINE_ORIGIN_DEG)
     from gcs_monitor.core.constants import EARTH_RADIUS_M
 
@@ -168,8 +178,10 @@ def read_zipline(path: Path) -> Flight:
         acc_frd_mps2=[a[:, 4:7]], omega_frd_radps=[a[:, 10:13]], euler_rad=a[:, 7:10],
         gps_t_s=t[keep_gps], gps_vel_ned_mps=a[keep_gps, 1:4],
         lat_rad=lat[keep_gps], lon_rad=lon[keep_gps], alt_m=alt[keep_gps],
-        notes=[f"t0 = {a[0, 0]:.3f} s since launch; GPS velocity masked over "
-               f"{ZIPLINE_RESET_MASK_S} s since launch (estimator reset)"],
+        notes=[f"t0 = {a[0, 0]:.3f} s since launch; " + (
+            f"GPS velocity masked over {ZIPLINE_RESET_MASK_S} s since launch (estimator reset)"
+            if mask_reset else "velocity as recorded (its estimator resets at 7.94 s since "
+            "launch: a velocity and attitude jump)")],
     )
 
 
@@ -196,17 +208,26 @@ def read_onspeed(path: Path) -> Flight:
     changed = np.ones(len(t), dtype=bool)
     changed[1:] = np.any(np.diff(gv, axis=0) != 0.0, axis=1)
     alt = c["Altitude"] * FT2M
+    # raw GNSS velocity: the receiver's latency is measured against the VN-300 IMU and the
+    # samples are stamped at their measurement instant (alignment.py)
+    ok = np.all(np.isfinite(acc0), axis=1) & np.all(np.isfinite(euler), axis=1)
+    eul_u = euler[ok].copy()
+    eul_u[:, 2] = np.unwrap(eul_u[:, 2])
+    gok = changed & np.all(np.isfinite(gv), axis=1)
+    lag = gnss_velocity_lag_s(t[ok], acc0[ok], eul_u, t[gok], gv[gok])
+    changed &= t - lag.lag_s >= t[0]  # a sample measured before the file starts is left out
     return Flight(
         name=path.stem, fmt="onspeed", t_s=t, acc_frd_mps2=[acc0, acc1],
         omega_frd_radps=[omg0, omg1], euler_rad=euler,
-        gps_t_s=t[changed], gps_vel_ned_mps=gv[changed],
+        gps_t_s=t[changed] - lag.lag_s, gps_vel_ned_mps=gv[changed],
         lat_rad=c["vnGnssLat"][changed] * DEG2RAD, lon_rad=c["vnGnssLon"][changed] * DEG2RAD,
         alt_m=alt[changed],
         air_t_s=t, cas_mps=c["IAS"] * KT2MPS, aoa_rad=c["AngleofAttack"] * DEG2RAD,
         baro_alt_m=c["Palt"] * FT2M, climb_mps=c["VSI"] * FPM2MPS,
         static_pressure_pa=c["PStatic"] * HPA2PA, oat_k=c["OAT"] + 273.15,
         notes=["IMU0 = VN-300 (rates quantised to 0.01 rad/s), IMU1 = OnSpeed internal "
-               "(RollRate sign flipped)", "IAS taken as CAS"],
+               "(RollRate sign flipped)", "IAS taken as CAS",
+               lag.note("VN-300 GNSS velocity")],
     )
 
 

@@ -9,7 +9,8 @@ names alike:
 * sensor_combined (otherwise): accelerometer_m_s2, gyro_rad -> HIGHRES_IMU id 0
 * vehicle_attitude: q (w, x, y, z) -> ATTITUDE (ZYX Euler)
 * vehicle_gps_position or sensor_gps: lat, lon degE7 (or latitude_deg, longitude_deg), alt mm (or
-  altitude_msl_m), vel_n/e/d_m_s, fix_type -> GLOBAL_POSITION_INT, GPS_RAW_INT
+  altitude_msl_m), vel_n/e/d_m_s, fix_type -> GLOBAL_POSITION_INT, GPS_RAW_INT, stamped at the
+  measurement instant (the receiver's lag behind IMU 0 measured from the log, alignment.py)
 * vehicle_local_position (only without a GPS topic): vx, vy, vz, x, y, z, ref_lat, ref_lon, ref_alt
   -> GLOBAL_POSITION_INT (EKF velocity: not independent of the IMU, said in the warnings)
 * airspeed (per instance): indicated_airspeed_m_s, air_temperature_celsius -> AIRSPEED id =
@@ -37,6 +38,7 @@ from typing import Any
 import numpy as np
 
 from gcs_monitor.convert import encode as enc
+from gcs_monitor.convert.alignment import LagEstimate, gnss_velocity_lag_s
 from gcs_monitor.convert.dataflash import (
     DEFAULT_IMU_RATE_HZ,
     DEFAULT_SETPOINT_RATE_HZ,
@@ -173,7 +175,9 @@ def ulog_messages(path: Path, *, imu_rate_hz: float = DEFAULT_IMU_RATE_HZ,
         streams.append((t, climb))
     gps = topics.get(("vehicle_gps_position", 0)) or topics.get(("sensor_gps", 0))
     if gps is not None:
-        _add_gps(streams, state, gps)
+        lag = _add_gps(streams, state, gps)
+        if lag is not None:
+            info.notes.append(lag.note("GNSS velocity"))
     elif lpos is not None:
         if _add_local_position(streams, state, lpos):
             info.warnings.append("no GPS topic logged: GPS velocity taken from "
@@ -265,6 +269,8 @@ def _add_imu(streams: list[tuple[np.ndarray, Emit]], state: dict[str, Any], inst
     ok = np.all(np.isfinite(v), axis=1)
     tb, vb = block_means(t[ok], v[ok], rate_hz)
     rows = vb.tolist()
+    if inst == 0:  # for the GNSS velocity's lag (alignment.py)
+        state["imu0"] = (np.asarray(tb, dtype=np.float64) * 1e-6, np.asarray(vb)[:, :3])
 
     def emit(i: int, t_us: int) -> Iterable[Any]:
         a0, a1, a2, g0, g1, g2 = rows[i]
@@ -280,6 +286,9 @@ def _add_attitude(streams: list[tuple[np.ndarray, Emit]], state: dict[str, Any],
     q = np.column_stack([_f(d, f"q[{i}]") for i in range(4)])  # type: ignore[misc]
     ok = np.all(np.isfinite(q), axis=1) & (np.linalg.norm(q, axis=1) > 0.5)
     euler = [euler_from_dcm(dcm_from_quat(x / np.linalg.norm(x))).tolist() for x in q[ok]]
+    if euler:
+        state["att"] = (np.asarray(d["timestamp"][ok], dtype=np.float64) * 1e-6,
+                        np.asarray(euler))
 
     def emit(i: int, t_us: int) -> Iterable[Any]:
         e = euler[i]
@@ -290,7 +299,9 @@ def _add_attitude(streams: list[tuple[np.ndarray, Emit]], state: dict[str, Any],
 
 
 def _add_gps(streams: list[tuple[np.ndarray, Emit]], state: dict[str, Any],
-             d: dict[str, np.ndarray]) -> None:
+             d: dict[str, np.ndarray]) -> LagEstimate | None:
+    """The GNSS receiver's position and velocity, stamped at the measurement instant: its lag
+    behind IMU 0 is measured from the log (alignment.py) and taken off the time stamps."""
     lat = _f(d, "latitude_deg")
     lon = _f(d, "longitude_deg")
     if lat is None or lon is None:
@@ -305,12 +316,16 @@ def _add_gps(streams: list[tuple[np.ndarray, Emit]], state: dict[str, Any],
     fix = _f(d, "fix_type")
     sats = _f(d, "satellites_used")
     if lat is None or lon is None or alt is None or any(v is None for v in vel):
-        return
+        return None
     cols = [lat * DEG2RAD, lon * DEG2RAD, alt, *vel,  # type: ignore[list-item]
             fix if fix is not None else np.full(len(lat), 3.0),
             sats if sats is not None else np.full(len(lat), 255.0)]
     ok = np.all(np.isfinite(np.column_stack(cols)), axis=1)
     rows = np.column_stack(cols)[ok].tolist()
+    t = np.asarray(d["timestamp"], dtype=np.int64)[ok]
+    lag = _gnss_lag(state, t, np.column_stack(vel)[ok], np.asarray(cols[6])[ok])  # type: ignore[arg-type]
+    if lag is not None and lag.determined:
+        t = t - int(round(lag.lag_s * 1e6))
 
     def emit(i: int, t_us: int) -> Iterable[Any]:
         la, lo, al, vn, ve, vd, fx, ns = rows[i]
@@ -320,7 +335,25 @@ def _add_gps(streams: list[tuple[np.ndarray, Emit]], state: dict[str, Any],
             out.append(enc.global_position_msg(t_us, la, lo, al, 0.0, (vn, ve, vd)))
         return out
 
-    streams.append((d["timestamp"][ok], emit))
+    streams.append((t, emit))
+    return lag
+
+
+def _gnss_lag(state: dict[str, Any], t_us: np.ndarray, vel_ned: np.ndarray,
+              fix: np.ndarray) -> LagEstimate | None:
+    """The GNSS velocity's lag behind IMU 0 (alignment.gnss_velocity_lag_s); None without
+    IMU 0 or attitude."""
+    imu, att = state.get("imu0"), state.get("att")
+    sel = fix >= 3
+    if imu is None or att is None or np.count_nonzero(sel) < 3:
+        return None
+    ti, acc = imu
+    ta, eul = att
+    ta, first = np.unique(ta, return_index=True)
+    eul = eul[first]
+    eul_i = np.column_stack([np.interp(ti, ta, np.unwrap(eul[:, k]) if k == 2 else eul[:, k])
+                             for k in range(3)])
+    return gnss_velocity_lag_s(ti, acc, eul_i, t_us[sel] * 1e-6, vel_ned[sel])
 
 
 def _add_local_position(streams: list[tuple[np.ndarray, Emit]], state: dict[str, Any],

@@ -382,6 +382,42 @@ def _step_numpy(
     )
 
 
+def two_stage_predict(
+    s: TwoStageState,
+    model: TwoStageModel,
+    u_prev: Vec,
+    u_now: Vec,
+    dt_s: float,
+    noise: TwoStageNoise,
+    *,
+    discretise: Discretiser | None = None,
+) -> TwoStageState | None:
+    """The time update alone, for a step without a measurement (Lu2016 eqs. 31-34, 41, 45-47,
+    49, then eqs. 50-52 with a zero gain).
+
+    With no measurement the bias-free estimate is its prediction (``x_bar = x_bar_{k|k-1}``,
+    ``P_bar = P_bar_{k|k-1}``), the fault estimate keeps its value with the grown covariance
+    ``P^f_{k|k-1}`` (eq. 41), the coupling is ``V = U`` (eq. 50 with ``K = 0``), and the blend
+    of eqs. 51-52 follows. ``Q^f``, the innovation window of eq. 53 and the step count are
+    unchanged (no innovation was seen). None on a numerical failure.
+    """
+    kern = load_kernels("gcs_monitor.filters._two_stage_jit")
+    F, G = model.jacobians(s.x, u_prev - s.f)  # Lu2016 note 1
+    Phi, Gam = (discretise or discretise_series)(F, G, dt_s)  # eqs. 33-34
+    Ubar, Pf_pred, W = kern.coupling(Phi, Gam, s.V, s.Pf, s.Qf)  # eqs. 47, 41
+    Lf, ok = cho_factor_lower(Pf_pred)
+    if not ok:
+        return None
+    U = Ubar + cho_solve_lower(Lf, W.T).T  # eq. 49
+    ubar, P_pred = kern.prediction(Phi, Gam, noise.Q, s.P_bar, Ubar, U, W, s.f)  # 45-46, 32
+    x_bar = model.propagate(s.x_bar, u_prev, u_now, dt_s) + ubar  # eq. 31
+    x = x_bar + U @ s.f  # eq. 51
+    Px = P_pred + U @ Pf_pred @ U.T  # eq. 52
+    if not (all_finite(x) and all_finite(Px)):
+        return None
+    return replace(s, x_bar=x_bar, P_bar=P_pred, Pf=Pf_pred, V=U, x=x, Px=0.5 * (Px + Px.T))
+
+
 def adapt_qf(gamma2: Mat, H: Mat, Gam: Mat, Q: Mat, R: Mat, dt_s: float) -> Mat:
     """Covariance-matching update of ``Q^f`` (Lu2016 eqs. 53, 57, 58).
 

@@ -74,6 +74,8 @@ class LinkStats:
     time_jumps : forward steps of the vehicle clock that the following samples confirmed (an
         outage or a clock step): the time line moved on, nothing was dropped
     reboots : vehicle time restarted (autopilot reboot): the assembler was reset
+    imu_held : IMU samples that repeat their instance's previous six values exactly (a held
+        value, not a measurement; the assembler keeps the earlier sample and its time)
     unknown_messages : well-framed packets whose id is not in the dialect
     signature_failures : MAVLink 2 packets that failed signing checks (where the sender is known)
     """
@@ -96,6 +98,9 @@ class LinkStats:
     time_jumps: int = 0
     clock_conflicts: int = 0  # two vehicle clocks interleaving (assembler)
     duplicates_dropped: int = 0  # same-timestamp samples dropped by the assembler
+    # IMU samples whose six values repeat the instance's previous sample bit for bit: the sender
+    # held its last value (no real IMU repeats its noise); not taken as new measurements
+    imu_held: int = 0
     reboots: int = 0
     primary_imu_switches: int = 0
     first_wall_s: float = float("nan")
@@ -264,7 +269,7 @@ class LinkStats:
             "bad_values_total": sum(self.bad_values.values()),
             "time_backwards": self.time_backwards, "clock_conflicts": self.clock_conflicts,
             "time_rejected": self.time_rejected, "time_jumps": self.time_jumps,
-            "duplicates_dropped": self.duplicates_dropped,
+            "duplicates_dropped": self.duplicates_dropped, "imu_held": self.imu_held,
             "reboots": self.reboots, "boot_count": self.reboots,
             "primary_imu_switches": self.primary_imu_switches,
             "last_vehicle_t_us": self.last_vehicle_t_us,

@@ -32,6 +32,18 @@ Timing conventions (all vehicle time, integer µs, from ``time_usec``/``time_boo
   at or before the query instant) is a new sample; ``gps_age_s`` is the query instant minus
   that sample's time; ``gps_fix`` is the latest GPS_RAW_INT fix (velocity needs a 3D fix).
 
+**Held IMU samples.** An IMU sample whose six values (specific force and rates) repeat the
+previous sample of the same instance bit for bit is a value the sender held (a stream resampled
+onto a faster grid and forward-filled, a logger that found no new sensor packet): no real IMU
+repeats its noise exactly, so it is no new measurement. The instance keeps its previous
+:class:`ImuSample`, *with that sample's time stamp*, ``stats.imu_held`` counts it, and it never
+makes an instance primary. A held sample of the primary still produces its Frame (the other
+inputs and the pipeline's clock go on), whose ``imu[primary].t_us`` is then earlier than
+``t_us``: consumers see the age of the IMU value and measure the *effective* IMU rate from the
+new samples alone (the IMU family does, and does not step its estimators on held samples). A
+primary that only repeats itself for ``stale_after_s`` while another instance delivers new
+samples is switched away from, as a silent one.
+
 Missing or stale inputs are explicit: ``None``/NaN plus an age (inf when never seen); an input
 older than ``stale_after_s`` is reported invalid. Non-finite or physically impossible values are
 counted per ``MESSAGE.field`` in the vehicle's :class:`LinkStats` and dropped, never passed on.
@@ -200,8 +212,9 @@ class FrameAssembler:
 
     # -- state -------------------------------------------------------------------------------
     def _reset(self) -> None:
-        self._imu: list[ImuSample | None] = [None] * N_IMU
-        self._imu_t = [NEVER_US] * N_IMU
+        self._imu: list[ImuSample | None] = [None] * N_IMU  # latest new sample per instance
+        self._imu_vals: list[tuple[float, ...]] = [()] * N_IMU  # its six values (held check)
+        self._imu_t = [NEVER_US] * N_IMU  # latest message time per instance (clock checks)
         self._imu_msg = [0] * N_IMU  # message id feeding each instance (one source each)
         self._highres = False
         self._primary: int | None = None
@@ -450,15 +463,26 @@ class FrameAssembler:
                     st.duplicate_sysid = True
             self._reboot_buf.clear()
             self._back_run = 0
-        v6 = np.array((ax, ay, az, p, q, r))  # one allocation, two views
-        sample = ImuSample(t_us, inst, v6[:3], v6[3:])
-        self._imu[inst] = sample
+        vals = (ax, ay, az, p, q, r)
+        held = vals == self._imu_vals[inst]  # module docstring, "Held IMU samples"
+        if held:
+            st.imu_held += 1
+            sample = self._imu[inst]
+        else:
+            v6 = np.array(vals)  # one allocation, two views
+            sample = ImuSample(t_us, inst, v6[:3], v6[3:])
+            self._imu[inst] = sample
+            self._imu_vals[inst] = vals
         self._imu_t[inst] = t_us
         self._ever_imu.add(inst)
         if inst != primary:
+            if held:
+                return []
+            # the primary's newest *new* sample: one that only repeats itself is silent too
+            last_new = self._imu[primary] if primary is not None else None
             if (primary is None or inst == self.preferred_imu
                     or (inst < primary and primary != self.preferred_imu)
-                    or t_us - self._imu_t[primary] > self.stale_us):
+                    or last_new is None or t_us - last_new.t_us > self.stale_us):
                 if primary is not None:
                     st.primary_imu_switches += 1
                 self._primary = primary = inst

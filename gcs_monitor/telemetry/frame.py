@@ -104,7 +104,9 @@ class Frame:
     Attributes
     ----------
     t_us : vehicle time of the primary IMU sample (int microseconds)
-    imu : per IMU instance, the latest sample (index = instance id); ``None`` where absent
+    imu : per IMU instance, the latest new sample (index = instance id); ``None`` where absent.
+        A held (bit-identical repeated) sample is no new sample: the instance keeps the earlier
+        one with its time, so ``imu[primary].t_us < t_us`` on the Frame of a held primary sample
     euler_rad : (3,) [phi, theta, psi] from ATTITUDE, or None
     gps_vel_ned_mps : (3,) GPS ground velocity, interpolated to ``t_us - gps_delay_us``, or None
     gps_delay_us : how far behind ``t_us`` the interpolated GPS velocity is (0 for held data)
@@ -185,5 +187,11 @@ class Frame:
 
     @property
     def primary_imu(self) -> ImuSample | None:
-        """The sample of the primary IMU (the one at ``t_us``)."""
+        """The latest new sample of the primary IMU (at ``t_us``, unless it was held)."""
         return self.imu[self.primary] if self.primary < len(self.imu) else None
+
+    @property
+    def imu_new(self) -> bool:
+        """The primary IMU delivered a new sample at ``t_us`` (not a held, repeated one)."""
+        s = self.primary_imu
+        return s is not None and s.t_us == self.t_us

@@ -158,8 +158,17 @@ def _summary_rows(results: Sequence[FlightResult]) -> list[list[str]]:
             vals = sorted(r.coverage[fam] for r in ok
                           if math.isfinite(r.coverage.get(fam, math.nan)))
             if not vals:
-                cells.append("not run" if not any(fam in r.state for r in ok) else
-                             ok[0].state.get(fam, "-"))
+                if not any(fam in r.state for r in ok):
+                    cells.append("not run")
+                    continue
+                # a family that never judged says why: each state and reason, with its count
+                why: dict[str, int] = {}
+                for r in ok:
+                    st = r.state.get(fam, "-")
+                    key = f"{st}: {r.reason[fam]}" if r.reason.get(fam) else st
+                    why[key] = why.get(key, 0) + 1
+                cells.append("; ".join(f"{k} (x{n})" if len(ok) > 1 else k
+                                       for k, n in why.items()))
                 continue
             below = sum(1 for v in vals if v < COVERAGE_TARGET)
             deg = sum(1 for r in ok if r.degraded.get(fam))

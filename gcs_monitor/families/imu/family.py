@@ -9,7 +9,12 @@ operator notices; ``update`` has nothing to feed back (no redundant IMU set is f
 returns the estimates.
 
 Channel windows are sized with the measured IMU sample period when judging starts (after the
-estimator's warm-up), never with an assumed rate.
+estimator's warm-up), never with an assumed rate. The period is that of the primary IMU's *new*
+samples: a held (bit-identical repeated) sample is no measurement (telemetry/assembler.py,
+"Held IMU samples"), so its Frame steps no estimator and leaves the family's account as it was,
+and the effective rate decides whether the family can judge at all (``RATE_HZ``). A primary that
+only repeats itself for longer than ``NO_DATA_PERIODS`` of its periods (at least the telemetry's
+``stale_after_s``) is not judged, and the family says so.
 """
 
 from __future__ import annotations
@@ -36,6 +41,7 @@ US_PER_S = 1_000_000
 # IMU rates the estimators are valid for (their discretisation follows the measured step; below
 # 10 Hz the attitude kinematics between samples is not resolved; docs/results.md, rate sweep)
 RATE_HZ = (10.0, 400.0)
+GPS_FIX_3D = 3  # GPS_RAW_INT fix_type of a 3D fix: the velocity is used from it on
 NO_DATA_PERIODS = 3.0  # an IMU instance is silent after this many of its own periods at least
 
 
@@ -109,12 +115,15 @@ class ImuFamily:
                 self._est.append(_Judged(ImuTwoStageEstimator(cfg.ts.estimator), cfg.ts.fdi))
             if cfg.hosm.enabled:
                 self._est.append(_Judged(ImuHosmEstimator(cfg.hosm.estimator), cfg.hosm.fdi))
-        self._period = SamplePeriod()
+        self._period = SamplePeriod()  # of the primary IMU's new samples (effective rate)
         self._estimates: list[Estimate] = []
+        self._held = False  # this Frame's primary IMU sample is a held (repeated) value
+        self._last_status: FamilyStatus | None = None  # the account of the last new sample
         # innovation consistency of each estimator that reports test ratios
         self._consistency: dict[str, _Consistency] = {}
         self._gate2 = cfg.ts.estimator.filter.gate_sigma ** 2
         self._inputs = False  # attitude and GPS velocity have been in the telemetry
+        self._seen_att = self._seen_gps = False
         # no-data check of every IMU instance: last sample time, alarm
         self._no_data_us = round(cfg.no_data_window_s * US_PER_S)
         self._last_sample: dict[int, int] = {}
@@ -126,15 +135,56 @@ class ImuFamily:
         return [j.estimator for j in self._est]
 
     def predict(self, frame: Frame) -> list[Estimate]:
-        """Every estimator's step on this Frame: its fault estimates f_hat (Lu2016 eq. 60)."""
+        """Every estimator's step on this Frame: its fault estimates f_hat (Lu2016 eq. 60).
+
+        On a held primary sample (``imu[primary].t_us < t_us``) nothing is stepped: the estimates
+        of the last new sample stand (a repeated value fed as new data would be integrated twice
+        over an interval it does not describe)."""
+        imu = frame.primary_imu
+        self._held = imu is not None and imu.t_us != frame.t_us and bool(self._estimates)
+        if self._held:
+            return self._estimates
         self._period.add(frame.t_us)
         self._estimates = [j.estimator.step(frame) for j in self._est]
         return self._estimates
 
+    def _held_verdict(self, frame: Frame) -> Verdict:
+        """The family's account on a held primary sample: unchanged (not a new sample) while the
+        hold is no longer than a few of the IMU's periods, else "not judged", with why."""
+        t_us = frame.t_us
+        imu = frame.primary_imu
+        assert imu is not None  # _held needs one
+        last = self._last_status
+        verdict = Verdict(FamilyStatus(self.name, t_us, False, sample=False,
+                                       reason=last.reason if last is not None else "",
+                                       inputs=last.inputs if last is not None else False))
+        if self._no_data_us:
+            verdict.events += self._instances(frame)
+        period_s = self._period.seconds()
+        limit_s = self.ctx.stale_after_s
+        if math.isfinite(period_s):
+            limit_s = max(limit_s, NO_DATA_PERIODS * period_s)
+        age_s = (t_us - imu.t_us) / US_PER_S
+        if age_s > limit_s:
+            verdict.status = FamilyStatus(
+                self.name, t_us, False, inputs=verdict.status.inputs,
+                reason=f"IMU {imu.instance} repeats its last sample for {age_s:.1f} s (held "
+                       "values, no new measurement)")
+        return verdict
+
     def judge(self, frame: Frame, prediction: list[Estimate]) -> Verdict:
+        if self._held:
+            return self._held_verdict(frame)
+        verdict = self._judge(frame, prediction)
+        self._last_status = verdict.status
+        return verdict
+
+    def _judge(self, frame: Frame, prediction: list[Estimate]) -> Verdict:
         t_us = frame.t_us
         if not self._inputs:
-            self._inputs = frame.euler_rad is not None and frame.gps_vel_ned_mps is not None
+            self._seen_att = self._seen_att or frame.euler_rad is not None
+            self._seen_gps = self._seen_gps or frame.gps_vel_ned_mps is not None
+            self._inputs = self._seen_att and self._seen_gps
         inputs = self._inputs and bool(self._est)  # no estimator enabled: nothing to judge
         verdict = Verdict(FamilyStatus(self.name, t_us, False, reason="no estimator enabled",
                                        inputs=inputs))
@@ -180,11 +230,28 @@ class ImuFamily:
             self._judge_channels(t_us, j, e, judged, verdict, statuses)
         if judged_any:
             verdict.status = FamilyStatus(self.name, t_us, True, inputs=inputs)
+        elif self._est and not self._inputs:
+            # a monitor that cannot judge says why: which input the telemetry never carried
+            verdict.status = FamilyStatus(self.name, t_us, False, reason=self._missing(frame),
+                                          inputs=False)
         elif reasons:
             verdict.status = FamilyStatus(self.name, t_us, False,
                                           reason="; ".join(dict.fromkeys(reasons)),
                                           inputs=inputs)
         return verdict
+
+    def _missing(self, frame: Frame) -> str:
+        """Which of the family's inputs the telemetry has not carried yet (all estimators
+        need attitude and GPS velocity; GLOBAL_POSITION_INT's velocity counts only with a 3D
+        fix)."""
+        out = []
+        if not self._seen_gps:
+            fix = frame.gps_fix
+            out.append(f"no GPS velocity: GPS without a 3D fix (fix type {fix})"
+                       if 0 <= fix < GPS_FIX_3D else "no GPS velocity in the telemetry")
+        if not self._seen_att:
+            out.append("no attitude in the telemetry")
+        return "; ".join(out)
 
     def _instances(self, frame: Frame) -> list[AlarmEvent]:
         """No-data check of every IMU instance that has delivered: silent for
@@ -249,7 +316,8 @@ class ImuFamily:
             return ""
         rate = 1.0 / period
         if rate < RATE_HZ[0]:
-            return f"IMU at {rate:.0f} Hz, below the {RATE_HZ[0]:g} Hz the IMU family needs"
+            # the rate of new samples: held repeats are not counted (module docstring)
+            return f"IMU at {rate:.2g} Hz, below the {RATE_HZ[0]:g} Hz the IMU family needs"
         return ""
 
     def _judge_channels(self, t_us: int, j: _Judged, e: Estimate, judged: bool,

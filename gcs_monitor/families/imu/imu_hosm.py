@@ -80,7 +80,7 @@ RESIDUAL_CHANNELS: tuple[ChannelId, ...] = (
     ChannelId("euler", 0, "theta"),
     ChannelId("euler", 0, "psi"),
 )
-_PSI = 5
+_PHI, _PSI = 3, 5  # roll and heading wrap at +-pi (a vehicle on its back rolls past pi)
 
 
 @dataclass(frozen=True, slots=True)
@@ -299,7 +299,7 @@ class ImuHosmEstimator:
             st.y,
             self._R,
             gate_sigma=self.cfg.gate_sigma,
-            wrap_idx=(_PSI,),
+            wrap_idx=(_PHI, _PSI),
         )
         self._t_prev_us = frame.t_us
         if not innov.numerics_ok:

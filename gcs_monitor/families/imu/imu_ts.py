@@ -15,10 +15,12 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from gcs_monitor.core.atmosphere import gravity_mps2, tas_from_cas
+from gcs_monitor.core.frames import euler_rates
 from gcs_monitor.core.kernels import load_kernels
 from gcs_monitor.core.params import param, section
 from gcs_monitor.core.types import ChannelId, Mat, Vec
 from gcs_monitor.families.imu.gating import (
+    SQRT2,
     SQRT6,
     GateConfig,
     GateDecision,
@@ -34,16 +36,18 @@ from gcs_monitor.filters.two_stage import (
     TwoStageNoise,
     TwoStageState,
     two_stage_init,
+    two_stage_predict,
     two_stage_step,
 )
 from gcs_monitor.models.kinematics import AsKm, GsKm
-from gcs_monitor.telemetry.frame import Frame
+from gcs_monitor.telemetry.frame import Frame, ImuSample
 from gcs_monitor.telemetry.period import SamplePeriod
 
 log = logging.getLogger(__name__)
 
 _DEG = math.pi / 180.0
 US_PER_S = 1_000_000
+GPS_FIX_3D = 3  # GPS_RAW_INT fix_type of a 3D fix
 FAULT_CHANNELS = (
     ChannelId("acc", 0, "x"), ChannelId("acc", 0, "y"), ChannelId("acc", 0, "z"),
     ChannelId("gyro", 0, "p"), ChannelId("gyro", 0, "q"), ChannelId("gyro", 0, "r"),
@@ -59,6 +63,7 @@ def fault_channels(instance: int) -> tuple[ChannelId, ...]:
 _EULER_CHANNELS = (
     ChannelId("euler", 0, "phi"), ChannelId("euler", 0, "theta"), ChannelId("euler", 0, "psi"),
 )  # fmt: skip
+_ANGLE_ROWS = (3, 5)  # phi and psi wrap at +-pi; theta stays within +-pi/2
 RESIDUAL_CHANNELS_GS = (
     ChannelId("gps_vel", 0, "n"), ChannelId("gps_vel", 0, "e"), ChannelId("gps_vel", 0, "d"),
 ) + _EULER_CHANNELS  # fmt: skip
@@ -125,6 +130,12 @@ class ImuTsConfig:
     max_held_gps_age_s: float = param(0.1, "a GPS velocity held past its sample (no later "
                                       "sample to interpolate towards) is not used beyond this "
                                       "age (its error is |dv/dt| x age)", positive=True)
+    max_gps_gap_s: float = param(1.0, "a GPS velocity missing for up to this long after the "
+                                 "last one used (a lost, late or repeated GPS sample) is "
+                                 "bridged: the states are propagated with the IMU alone (the "
+                                 "time update without a measurement), the fault estimates "
+                                 "kept; beyond it the estimate is unavailable (0: never "
+                                 "bridged)")
     max_att_age_s: float = param(0.5, "older attitude makes the estimate unavailable",
                                  positive=True)
     max_air_age_s: float = param(0.5, "older air data makes the AS-KM estimate unavailable",
@@ -179,6 +190,9 @@ class ImuTwoStageEstimator:
             gate_sigma=self.cfg.filter.gate_sigma,
         )
         self._d2_floor = [self.cfg.gate.gate_sigma * SQRT6 * x for x in sig_u]  # gating item 1
+        # its sample-timing term (first difference), unless turned off
+        self._d1_floor = ([self.cfg.gate.gate_sigma * SQRT2 * x for x in sig_u]
+                          if self.cfg.gate.sample_timing else [])
         # velocity rows 0-2 and Euler rows 3-5 are gated separately (gating.py item 2)
         self._gates = (MeasurementStepGate(self.cfg.gate), MeasurementStepGate(self.cfg.gate))
         self._state: TwoStageState | None = None
@@ -187,6 +201,10 @@ class ImuTwoStageEstimator:
         self._u_prev_l: list[float] = []
         self._r_prev = [0.0] * 6  # previous measured minus estimated output (gates)
         self._t_prev_us = 0
+        self._t_meas_us = 0  # vehicle time of the last measurement update
+        self._rejected = False  # the step gate rejected rows of this sample
+        # extra attitude variance of the last measurement when it was a held sample
+        self._att_held_var: tuple[float, ...] = ()
         self._period = SamplePeriod()  # of its usable samples: gap limit, re-anchoring
         self._instance: int | None = None  # the IMU instance monitored
         self._restart_why = ""
@@ -233,12 +251,24 @@ class ImuTwoStageEstimator:
             self._channels = fault_channels(inst)
         if frame.euler_rad is None or frame.att_age_s > cfg.max_att_age_s:
             return Estimate.unavailable(self.name, frame.t_us, "attitude missing or stale")
-        if not (math.isfinite(frame.lat_rad) and math.isfinite(frame.alt_msl_m)):
+        geo = math.isfinite(frame.lat_rad) and math.isfinite(frame.alt_msl_m)
+        if not geo and cfg.model == "as":  # the AS-KM measurement needs the altitude (TAS)
             return Estimate.unavailable(self.name, frame.t_us, "latitude/altitude missing")
         y = self._measurement(frame)
+        if y is None and geo:
+            bridged = self._bridge(frame, imu)
+            if bridged is not None:
+                return bridged
         if y is None:
-            what = "gps velocity" if cfg.model == "gs" else "air data (cas, aoa, ssa)"
-            return Estimate.unavailable(self.name, frame.t_us, f"{what} missing or stale")
+            if cfg.model == "as":
+                why = "air data (cas, aoa, ssa) missing or stale"
+            elif 0 <= frame.gps_fix < GPS_FIX_3D:
+                why = f"gps velocity missing: no 3D fix (GPS fix type {frame.gps_fix})"
+            else:
+                why = "gps velocity missing or stale"
+            return Estimate.unavailable(self.name, frame.t_us, why)
+        if not geo:  # GS-KM: position comes with the GPS velocity; a bad field alone
+            return Estimate.unavailable(self.name, frame.t_us, "latitude/altitude missing")
         u_m = np.concatenate([imu.acc_frd_mps2, imu.omega_frd_radps])
         if not _all_finite(u_m):
             return Estimate.unavailable(self.name, frame.t_us, "imu sample not finite")
@@ -246,6 +276,8 @@ class ImuTwoStageEstimator:
         self._period.add(frame.t_us)
         max_dt_s = max(cfg.max_dt_s, cfg.max_gap_periods * self._period.seconds()) \
             if self._period.known else cfg.max_dt_s
+        dt_meas_s = (frame.t_us - self._t_meas_us) * 1e-6  # since the last measurement used
+        self._t_meas_us = frame.t_us
         if self._state is None or self._u_prev is None or not 0.0 < dt_s <= max_dt_s:
             converged = frame.t_us - self._t_start_us >= cfg.start_warmup_s * 1e6
             if self._state is not None and dt_s > 0.0 and cfg.gate.enabled and converged:
@@ -269,21 +301,32 @@ class ImuTwoStageEstimator:
             s = replace(s, Qf=self.qf0(dt_s))
         y = y.copy()
         y[5] = s.x[5] + _wrap_pi(y[5] - s.x[5])  # heading innovation across +-pi
+        if abs(y[3] - s.x[3]) > math.pi:  # roll across +-pi (a vehicle on its back)
+            y[3] = s.x[3] + _wrap_pi(y[3] - s.x[3])
         noise, extra = self._noise, None
         u_l = u_m.tolist()
         if cfg.gate.enabled and self._u_prev2 is not None:
             # gating.py item 1: unresolved intra-sample input profile is process noise (eq. 56)
-            extra = intra_sample_excess_var(self._u_prev2, self._u_prev_l, u_l, self._d2_floor)
+            extra = intra_sample_excess_var(self._u_prev2, self._u_prev_l, u_l, self._d2_floor,
+                                            self._d1_floor)
             if extra is not None:
                 noise = TwoStageNoise(Q=self._noise.Q + np.diag(extra), R=self._noise.R)
+        held_prev = self._att_held_var
+        if cfg.model == "gs" and frame.att_age_s > 0.0:
+            noise, self._att_held_var = self._held_attitude_noise(noise, s, u_m,
+                                                                  frame.att_age_s)
+        else:
+            self._att_held_var = ()
         model = self._model(frame)
         if self._packed is not None and s.k >= self._fcfg.n_iterated_steps:
             new, innov = self._step_packed(s, frame, u_m, y, dt_s, noise)
         else:
             new, innov = two_stage_step(s, model, self._u_prev, u_m, y, dt_s, noise, self._fcfg)
         why = ""
+        self._rejected = False
         if cfg.gate.enabled and cfg.model == "gs" and innov.numerics_ok:
-            why, new, innov = self._gated(s, model, u_m, y, dt_s, noise, extra, new, innov)
+            why, new, innov = self._gated(s, model, u_m, y, dt_s, noise, extra, new, innov,
+                                          dt_meas_s, held_prev)
         self._u_prev2, self._u_prev_l = self._u_prev_l, u_l
         self._u_prev, self._t_prev_us = u_m, frame.t_us
         if not innov.numerics_ok:
@@ -291,20 +334,80 @@ class ImuTwoStageEstimator:
             self.reset()
             est = self._estimate(frame.t_us, s, u_m, innov.nu, False)
             return est
-        if abs(new.x[5]) > math.pi:  # keep psi in (-pi, pi]; a 2 pi shift leaves P unchanged
+        if abs(new.x[5]) > math.pi or abs(new.x[3]) > math.pi:
+            # keep phi and psi in (-pi, pi]; a 2 pi shift leaves P unchanged
             shift = np.zeros(6)
-            shift[5] = _wrap_pi(new.x[5]) - new.x[5]
+            for i in _ANGLE_ROWS:
+                shift[i] = _wrap_pi(new.x[i]) - new.x[i]
             new = replace(new, x_bar=new.x_bar + shift, x=new.x + shift)
         self._state = new
         r = (y - new.x).tolist()
         r[5] = _wrap_pi(r[5])  # y[5] was unwrapped against the previous state, new.x may wrap
+        if abs(r[3]) > math.pi:
+            r[3] = _wrap_pi(r[3])
         self._r_prev = r
-        est = self._estimate(frame.t_us, new, u_m, innov.nu, True, innov.test_ratio)
+        # a sample the step gate rejected is a reference step, not noise: its test ratios do
+        # not enter the noise-model consistency check (family.py)
+        est = self._estimate(frame.t_us, new, u_m, innov.nu, True,
+                             None if self._rejected else innov.test_ratio)
         if why:
             return replace(est, reinit=why, reinit_warmup_s=cfg.reanchor_warmup_s)
         return est
 
     # -- helpers -------------------------------------------------------------------------------
+    def _held_attitude_noise(self, noise: TwoStageNoise, s: TwoStageState, u_m: Vec,
+                             age_s: float) -> tuple[TwoStageNoise, tuple[float, ...]]:
+        """Attitude noise of a held ATTITUDE sample (``age_s`` older than the IMU sample): it
+        is the attitude of an earlier instant, off by the rotation since, so its variance
+        grows by ``(euler_rate x age)^2`` per angle (Euler rates from the corrected gyro,
+        Lu2016 eq. 11). A slower attitude stream (ArduCopter logs ATT at 10 Hz while the IMU
+        runs at 50 Hz) is then used for what it is, and the attitude step gate (gating.py) does
+        not take the jump at its next sample for an unexplained step."""
+        w = u_m[3:] - s.f[3:]
+        rates = euler_rates(float(s.x[3]), float(s.x[4]), w)
+        add = tuple((float(r) * age_s) ** 2 for r in rates)
+        R = noise.R.copy()
+        for i in range(3):
+            R[3 + i, 3 + i] += add[i]
+        return TwoStageNoise(Q=noise.Q, R=R), add
+
+    def _bridge(self, frame: Frame, imu: ImuSample) -> Estimate | None:
+        """The time update alone across a short GPS gap (``max_gps_gap_s``): the states follow
+        the IMU, the fault estimates and their covariance carry on (two_stage_predict); None
+        when the gap is too long or there is nothing to propagate (the caller reports the
+        estimate unavailable)."""
+        cfg = self.cfg
+        s = self._state
+        if (cfg.model != "gs" or s is None or self._u_prev is None or s.k == 0
+                or frame.t_us - self._t_meas_us > cfg.max_gps_gap_s * US_PER_S):
+            return None
+        dt_s = (frame.t_us - self._t_prev_us) * 1e-6
+        max_dt_s = max(cfg.max_dt_s, cfg.max_gap_periods * self._period.seconds()) \
+            if self._period.known else cfg.max_dt_s
+        u_m = np.concatenate([imu.acc_frd_mps2, imu.omega_frd_radps])
+        if not (0.0 < dt_s <= max_dt_s and _all_finite(u_m)):
+            return None
+        u_l = u_m.tolist()
+        noise = self._noise
+        if cfg.gate.enabled and self._u_prev2 is not None:
+            extra = intra_sample_excess_var(self._u_prev2, self._u_prev_l, u_l, self._d2_floor,
+                                            self._d1_floor)
+            if extra is not None:
+                noise = TwoStageNoise(Q=self._noise.Q + np.diag(extra), R=self._noise.R)
+        new = two_stage_predict(s, self._model(frame), self._u_prev, u_m, dt_s, noise)
+        if new is None:
+            return None
+        if abs(new.x[5]) > math.pi or abs(new.x[3]) > math.pi:
+            shift = np.zeros(6)
+            for i in _ANGLE_ROWS:
+                shift[i] = _wrap_pi(new.x[i]) - new.x[i]
+            new = replace(new, x_bar=new.x_bar + shift, x=new.x + shift)
+        self._period.add(frame.t_us)
+        self._state = new
+        self._u_prev2, self._u_prev_l = self._u_prev_l, u_l
+        self._u_prev, self._t_prev_us = u_m, frame.t_us
+        return self._estimate(frame.t_us, new, u_m, np.zeros(6), True)
+
     def _step_packed(self, s: TwoStageState, frame: Frame, u_m: Vec, y: Vec, dt_s: float,
                      noise: TwoStageNoise) -> tuple[TwoStageState, Innovation]:
         """``two_stage_step(s, GsKm(lat, alt), ...)`` through the compiled GS-KM and filter."""
@@ -382,9 +485,13 @@ class ImuTwoStageEstimator:
 
     def _gated(self, s: TwoStageState, model: GsKm | AsKm, u_m: Vec, y: Vec, dt_s: float,
                noise: TwoStageNoise, extra: list[float] | None, new: TwoStageState,
-               innov: Innovation) -> tuple[str, TwoStageState, Innovation]:
+               innov: Innovation, dt_meas_s: float, held_prev: tuple[float, ...] = (),
+               ) -> tuple[str, TwoStageState, Innovation]:
         """Velocity and attitude step gates (gating.py item 2) on a finished step; re-runs the
-        step without the rejected rows only when a gate does not accept."""
+        step without the rejected rows only when a gate does not accept. The increment it
+        tests spans ``dt_meas_s``, the time since the previous measurement used (one sample
+        interval, or a bridged GPS gap), and so does the fault step it admits; from a held
+        previous attitude it also allows that sample's ``(rate x age)^2`` (``held_prev``)."""
         g = self.cfg.gate
         ex = [0.0] * 6 if extra is None else extra
         nu, sd, r = innov.nu.tolist(), innov.S_diag.tolist(), self._r_prev
@@ -393,10 +500,12 @@ class ImuTwoStageEstimator:
                 self._gates, (g.acc_fault_step_max_mps2, g.gyro_fault_step_max_radps),
                 strict=True)):
             a, b = 3 * j, 3 * j + 3
-            bound = step_bound(sd[a:b], ex[a:b], dt_s, g.gate_sigma, step_max)
+            bound = step_bound(sd[a:b], ex[a:b], max(dt_s, dt_meas_s), g.gate_sigma, step_max,
+                               held_var=held_prev if j == 1 else ())
             decisions.append(gate.decide(nu[a:b], r[a:b], bound))
         if all(d is GateDecision.ACCEPT for d in decisions):
             return "", new, innov
+        self._rejected = True
         # no information from the rejected rows this sample: the measurement is replaced by the
         # prediction (zero innovation); the real innovation is still reported
         y_pred = y.copy()

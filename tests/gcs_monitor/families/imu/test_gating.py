@@ -24,22 +24,32 @@ def test_intra_sample_variance_of_a_step_equals_its_formula() -> None:
     u0 = np.array([0.0, 0.0, -9.8])
     u2 = np.array([60.0, 0.0, -9.8])
     sigma = np.full(3, 0.1)
-    var = intra_sample_input_var(u0, u0, u2, sigma, 3.0)
+    var = intra_sample_input_var(u0, u0, u2, sigma, 3.0, timing=False)
     expected_x = ((60.0 - 3.0 * math.sqrt(6.0) * 0.1) / 2.0) ** 2  # hand: (59.265 / 2)^2
+    np.testing.assert_allclose(var, [expected_x, 0.0, 0.0], rtol=1e-12)
+    # with the sample-timing term the first difference (60 too) has the lower floor
+    # 3 sqrt(2) sigma, so it is the larger: (59.576 / 2)^2
+    var = intra_sample_input_var(u0, u0, u2, sigma, 3.0)
+    expected_x = ((60.0 - 3.0 * math.sqrt(2.0) * 0.1) / 2.0) ** 2
     np.testing.assert_allclose(var, [expected_x, 0.0, 0.0], rtol=1e-12)
 
 
-def test_intra_sample_variance_is_zero_for_a_ramp_and_for_noise_level_changes() -> None:
-    # a ramp (any slope) is exactly what the first-order hold integrates: no extra variance
+def test_intra_sample_variance_of_a_ramp_and_of_noise_level_changes() -> None:
+    # a ramp (any slope) is exactly what the first-order hold integrates for instantaneous
+    # samples: no step term; whether a sample is the instant or the interval mean is not known,
+    # so the timing term covers half a sample of it: ((slope - 3 sqrt(2) sigma) / 2)^2
     ramp = [np.full(3, a) for a in (1.0, 3.0, 5.0)]
-    assert not intra_sample_input_var(*ramp, np.full(3, 0.01), 3.0).any()
-    # second differences within 3 sqrt(6) sigma are noise
+    assert not intra_sample_input_var(*ramp, np.full(3, 0.01), 3.0, timing=False).any()
+    np.testing.assert_allclose(intra_sample_input_var(*ramp, np.full(3, 0.01), 3.0),
+                               np.full(3, ((2.0 - 3.0 * math.sqrt(2.0) * 0.01) / 2.0) ** 2),
+                               rtol=1e-12)
+    # first and second differences within their 3-sigma floors are noise
     rng = np.random.default_rng(3)
     sigma = np.full(3, 0.05)
     u = rng.standard_normal((2000, 3)) * sigma
     n_hit = sum(intra_sample_input_var(u[k - 2], u[k - 1], u[k], sigma, 3.0).any()
                 for k in range(2, len(u)))
-    assert n_hit < 0.02 * len(u)  # P(|N| > 3 sigma) = 0.27 % per channel
+    assert n_hit < 0.04 * len(u)  # P(|N| > 3 sigma) = 0.27 % per channel and difference
 
 
 def test_velocity_step_bound_equals_its_formula() -> None:
