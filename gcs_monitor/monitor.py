@@ -493,10 +493,13 @@ class Monitor:
                 "vehicles": {str(sysid): self.vehicle_health(sysid)
                              for sysid in self.vehicles}}
 
-    def publish_health(self) -> None:
+    def publish_health(self, extra: dict[str, Any] | None = None) -> None:
+        """Hand every vehicle's health to its sinks (``extra`` keys added, e.g. ``fleet``)."""
         for sysid, v in self.vehicles.items():
             if v.out is not None and v.out.sinks:
                 h = self.vehicle_health(sysid)
+                if extra:
+                    h.update(extra)
                 for sink in v.out.sinks:
                     sink.update_health(h)
 

@@ -291,14 +291,20 @@ class ZenohSource(_ThreadedSource):
         super().__init__(max_chunks, idle_timeout_s)
         from dataclasses import replace
 
-        from gcs_monitor.link.zenoh_bus import DEFAULT_ENDPOINT, ZenohOptions, open_bus
+        from gcs_monitor.link.zenoh_bus import (
+            DEFAULT_ENDPOINT,
+            RoleDefaults,
+            ZenohOptions,
+            open_bus,
+        )
 
         opts = options if options is not None else ZenohOptions()
         if endpoints:
             opts = replace(opts, connect=tuple(endpoints))
         elif opts.connect is None:
             opts = replace(opts, connect=(DEFAULT_ENDPOINT,))
-        self._bus = open_bus(opts, what=f"zenoh:{keyexpr}")
+        # a client: it reaches a publishing peer directly and a router's other clients
+        self._bus = open_bus(opts, what=f"zenoh:{keyexpr}", defaults=RoleDefaults(mode="client"))
         try:
             self._bus.subscribe(keyexpr, self._on_sample)
         except Exception as exc:

@@ -303,7 +303,7 @@ class AlarmSubscriber:
         self._closed = False
         opts = options or ZenohOptions()
         self._bus = open_bus(opts, what="alarm subscriber", defaults=RoleDefaults(
-            listen=tuple(listen),
+            mode="client" if not listen else "peer", listen=tuple(listen),
             connect=tuple(connect) if connect is not None else (DEFAULT_ENDPOINT,)))
         try:
             if history > 0:
