@@ -272,6 +272,7 @@ def _run_source(src: Any, args: argparse.Namespace, *, duration_s: float | None 
     t0 = time.monotonic()
     next_health = t0
     rejected = 0
+    next_reject_note = t0
     try:
         for data, wall in src:
             for ev in monitor.feed(data, wall):
@@ -280,16 +281,18 @@ def _run_source(src: Any, args: argparse.Namespace, *, duration_s: float | None 
             now = time.monotonic()
             if on_wall is not None:
                 on_wall(monitor, now)
+            c = monitor.decoder.counters
+            if c.bad_signature > rejected and now >= next_reject_note:
+                # said at once, then at most every 5 s while it goes on
+                print(f"gcs-monitor: {c.bad_signature - rejected} packets rejected by "
+                      f"signing (unsigned {c.unsigned_rejected}, wrong key {c.wrong_key}, "
+                      f"replayed {c.replayed} so far)", file=sys.stderr, flush=True)
+                rejected = c.bad_signature
+                next_reject_note = now + 5.0
             if now >= next_health:
                 monitor.source_counters = _source_counters(src)
                 monitor.publish_health()
                 next_health = now + 1.0
-                c = monitor.decoder.counters
-                if c.bad_signature > rejected:
-                    print(f"gcs-monitor: {c.bad_signature - rejected} packets rejected by "
-                          f"signing (unsigned {c.unsigned_rejected}, wrong key {c.wrong_key}, "
-                          f"replayed {c.replayed} so far)", file=sys.stderr, flush=True)
-                    rejected = c.bad_signature
             if duration_s is not None and now - t0 >= duration_s:
                 break
         for ev in monitor.finish():
