@@ -43,8 +43,15 @@ MAV2_IFLAG_SIGNED = 0x01
 # messages that carry the sender's clock (time since boot, ms): they bound burst losses
 CLOCK_IDS = frozenset(mid for mid, cls in mavlink.mavlink_map.items()
                       if "time_boot_ms" in cls.fieldnames)
-# messages whose instance id is a MAVLink 2 extension: absent in MAVLink 1 framing
-MAV1_INSTANCE_IDS = {mavlink.MAVLINK_MSG_ID_HIGHRES_IMU: "time_usec"}
+# messages with an instance id and a time stamp: (payload offset of the id, time field). A
+# MAVLink 1 frame whose payload ends before that offset lacks the id (an extension): every
+# instance then reads as 0
+MAV1_INSTANCE_IDS = {
+    mid: (int(cls.instance_offset), tf)
+    for mid, cls in mavlink.mavlink_map.items()
+    if getattr(cls, "instance_field", None) and getattr(cls, "instance_offset", None) is not None
+    for tf in ("time_usec", "time_boot_ms") if tf in cls.fieldnames
+}
 
 
 def _sender(buf: bytes | bytearray) -> int | None:
@@ -140,7 +147,9 @@ class Decoder:
                         if mid == MSG_HEARTBEAT:
                             st.on_heartbeat(hdr.srcComponent, m.type, m.autopilot)
                         elif mid in MAV1_INSTANCE_IDS and m._msgbuf[0] == MAV1_MAGIC:
-                            st.on_mav1_instance(m._type, getattr(m, MAV1_INSTANCE_IDS[mid]))
+                            offset, tfield = MAV1_INSTANCE_IDS[mid]
+                            if m._msgbuf[1] <= offset:  # the frame ends before the id
+                                st.on_mav1_instance(m._type, getattr(m, tfield))
                         if self.signing:
                             if hdr.incompat_flags & MAV2_IFLAG_SIGNED:
                                 st.signed_packets += 1

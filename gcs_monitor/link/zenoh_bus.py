@@ -278,7 +278,8 @@ class ZenohBus:
         sub = zx.declare_advanced_subscriber(
             self.session, key, on_sample,
             history=zx.HistoryConfig(detect_late_publishers=True, max_samples=history),
-            recovery=zx.RecoveryConfig(heartbeat=True, periodic_queries=None), subscriber_detection=True)
+            recovery=zx.RecoveryConfig(heartbeat=True, periodic_queries=None),
+            subscriber_detection=True)
         self._keep(sub)
         if on_miss is not None:
             listener = sub.sample_miss_listener(lambda m: on_miss(str(m.source), int(m.nb)))
