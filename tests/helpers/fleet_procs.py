@@ -39,6 +39,12 @@ def miss(src, n):
     out.write(json.dumps({"type": "missed", "n": n}) + "\\n")
 opts = ZenohOptions(mode="client", connect=(sys.argv[1],))
 sub = AlarmSubscriber("gcs/*/alarm", options=opts, callback=on, on_miss=miss)
+def status(key, payload):
+    d = json.loads(payload)
+    out.write(json.dumps({"type": "status", "recv_wall_s": time.time(),
+                          "worker": d.get("worker"), "watermarks": d.get("watermarks"),
+                          "raw_dropped": d.get("raw_dropped"), "owned": d.get("owned")}) + "\\n")
+sub._bus.subscribe("gcs/fleet/*/status/*", status)
 try:
     while True:
         time.sleep(0.5)
@@ -159,6 +165,7 @@ def send(templates: Path, port: int, host: str, n: int, t0_file: Path, *, speed:
 @dataclass
 class FleetResult:
     alarms: list[dict[str, Any]]
+    status_log: list[dict[str, Any]]  # workers' statuses as the recorder received them
     t0_wall_s: float
     onsets: tuple[float | None, ...]
     n: int
@@ -173,6 +180,39 @@ class FleetResult:
 
     def onset_of(self, sysid: int) -> float | None:
         return self.onsets[(sysid - 1) % len(self.onsets)]
+
+    def stagger_s(self, sysid: int) -> float:
+        """The sender's offset of vehicle ``sysid`` (vehicles are not synchronised)."""
+        return ((sysid - 1) * 137 % 5000) * 1e-6
+
+    def sent_vehicle_time_s(self, wall_s: float) -> float:
+        return (wall_s - self.t0_wall_s) * self.speed
+
+    def lags_s(self) -> list[tuple[float, str, float]]:
+        """(wall time, worker, its worst vehicle's lag behind the sender, s) per status."""
+        out = []
+        for st in self.status_log:
+            marks = st.get("watermarks") or {}
+            if not marks:
+                continue
+            sent = self.sent_vehicle_time_s(st["recv_wall_s"])
+            worst = max(sent - w * 1e-6 - self.stagger_s(int(s)) for s, w in marks.items())
+            out.append((st["recv_wall_s"], str(st["worker"]), worst))
+        return out
+
+    def latencies_s(self) -> dict[int, float]:
+        """Per faulty vehicle: its first fault alarm's receipt minus the onset's send time."""
+        out: dict[int, float] = {}
+        for a in self.alarms:
+            if a.get("state") != "raised" or a.get("kind") != "sensor_fault":
+                continue
+            v = int(a["vehicle"])
+            onset = self.onset_of(v)
+            if onset is None or v in out:
+                continue
+            sent = self.t0_wall_s + (onset + self.stagger_s(v)) / self.speed
+            out[v] = a["recv_wall_s"] - sent
+        return out
 
 
 def run_fleet(tmp: Path, templates: Path, *, n: int, workers: int, duration_s: float,
@@ -245,11 +285,14 @@ def run_fleet(tmp: Path, templates: Path, *, n: int, workers: int, duration_s: f
             procs.stop(wprocs[k], sig=15)
         procs.stop(recorder, sig=2)
         del bridge_rc
-    alarms = [json.loads(ln) for ln in alarms_file.read_text().splitlines() if ln.strip()] \
+    records = [json.loads(ln) for ln in alarms_file.read_text().splitlines() if ln.strip()] \
         if alarms_file.exists() else []
+    alarms = [d for d in records if d.get("type") != "status"]
+    status_log = [d for d in records if d.get("type") == "status"]
     t0 = json.loads(t0_file.read_text())
     logs = {p.name: p.read_text(errors="replace") for p in tmp.glob("*.log")}
-    return FleetResult(alarms=alarms, t0_wall_s=t0["t0_wall_s"], onsets=tuple(t0["onsets"]),
+    return FleetResult(alarms=alarms, status_log=status_log, t0_wall_s=t0["t0_wall_s"],
+                       onsets=tuple(t0["onsets"]),
                        n=n, speed=speed, kill_wall_s=kill_wall, samples=samples,
                        health=health, statuses=statuses, bridge_out=logs.get("bridge.log", ""),
                        sender_out=logs.get("sender.log", ""), logs=logs)
