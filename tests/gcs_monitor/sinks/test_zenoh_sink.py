@@ -172,8 +172,11 @@ def test_port_in_use_is_a_clear_error() -> None:
 def test_subscriber_closes_without_hang() -> None:
     # A process with a callback subscriber that is closed exits promptly (stack-notes pitfall).
     code = textwrap.dedent(f"""
+        from gcs_monitor.link.zenoh_bus import ZenohOptions
         from gcs_monitor.sinks.zenoh_sink import subscribe_alarms
-        sub = subscribe_alarms("gcs/*/alarm", connect=["tcp/127.0.0.1:{_free_port()}"])
+        # a peer keeps retrying an endpoint nobody listens on (a client would fail at once)
+        sub = subscribe_alarms("gcs/*/alarm", connect=["tcp/127.0.0.1:{_free_port()}"],
+                               options=ZenohOptions(mode="peer"))
         sub.close()
     """)
     r = subprocess.run([sys.executable, "-c", code], timeout=60)  # liveness: a hang never ends
