@@ -267,7 +267,7 @@ def _run_source(src: Any, args: argparse.Namespace, *, duration_s: float | None 
         print(banner, flush=True)
     active = outputs.journal.active_alarms() if inherit and outputs is not None and \
         outputs.journal is not None else None
-    monitor = Monitor(cfg, sinks_for=sinks_for, decoder=decoder,
+    monitor: Any = Monitor(cfg, sinks_for=sinks_for, decoder=decoder,
                       raw_sink=raw_sink if raws else None, inherit=active)
     t0 = time.monotonic()
     next_health = t0

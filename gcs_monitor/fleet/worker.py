@@ -173,6 +173,7 @@ class Worker:
         self.n_raw_dropped = 0
         self.n_foreign_key = 0
         self.handovers: list[dict[str, Any]] = []
+        self._scope_cache: dict[int, bool] = {}
         self._control: queue.Queue[tuple[Any, ...]] = queue.Queue()
         self._raw: queue.Queue[tuple[int, bytes, float]] = queue.Queue(MAX_RAW_QUEUE)
         self._stop = threading.Event()
@@ -335,7 +336,10 @@ class Worker:
             self._dirty = True
 
     def _in_scope(self, sysid: int) -> bool:
-        return keyexpr_includes(self.opts.scope, raw_key(sysid))
+        ok = self._scope_cache.get(sysid)
+        if ok is None:
+            ok = self._scope_cache[sysid] = keyexpr_includes(self.opts.scope, raw_key(sysid))
+        return ok
 
     # -- membership and ownership ----------------------------------------------------------
     def members(self) -> list[Member]:
