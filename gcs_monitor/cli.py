@@ -23,45 +23,69 @@ DEFAULT_ZENOH = "tcp/127.0.0.1:7447"
 
 
 # -- sinks -------------------------------------------------------------------------------------
-def _sinks_factory(args: argparse.Namespace, cfg: MonitorConfig) -> Callable[[int], list[Any]]:
-    journal = None
-    if getattr(args, "journal", None):
-        from gcs_monitor.sinks.journal import AlarmJournal
+class _Outputs:
+    """The sinks of a run: one Zenoh session, one web viewer and one journal shared by every
+    vehicle, opened before any data is read (a port in use stops the command with one line
+    instead of a monitor that runs on without its outputs); closed by :meth:`close`."""
 
-        journal = AlarmJournal(Path(args.journal))
-    state = {"zenoh_listening": False}
+    def __init__(self, args: argparse.Namespace, cfg: MonitorConfig) -> None:
+        self.args, self.cfg = args, cfg
+        self.bus: Any = None
+        self.viewer: Any = None
+        self.journal: Any = None
+        try:
+            self._open()
+        except BaseException:
+            self.close()
+            raise
 
-    def blueprint(sysid: int) -> Any:
+    def _open(self) -> None:
+        args, cfg = self.args, self.cfg
+        if getattr(args, "journal", None):
+            from gcs_monitor.sinks.journal import AlarmJournal
+
+            self.journal = AlarmJournal(Path(args.journal))
+            if self.journal.repair.repaired:
+                print(f"gcs-monitor: journal {args.journal}: {self.journal.repair.describe()}",
+                      file=sys.stderr, flush=True)
+        if getattr(args, "web", False):
+            from gcs_monitor.sinks.rerun_sink import WebViewer
+
+            self.viewer = WebViewer(bind=args.web_bind, web_port=args.web_port,
+                                    grpc_port=args.web_grpc_port)
+            print(f"Rerun web viewer at {self.viewer.viewer_url}", flush=True)
+        if getattr(args, "zenoh", False) or cfg.sinks.zenoh:
+            from gcs_monitor.link.zenoh_bus import RoleDefaults, open_bus
+
+            listen = tuple(args.zenoh_listen or cfg.sinks.zenoh_listen)
+            connect = tuple(args.zenoh_connect or cfg.sinks.zenoh_connect)
+            self.bus = open_bus(_zenoh_options(args), what="zenoh",
+                                defaults=RoleDefaults(listen=listen, connect=connect))
+
+    def blueprint(self, sysid: int) -> Any:
         from dashboards.blueprints import default_blueprint, family_views
 
-        return default_blueprint(sysid, family_views(cfg))
+        return default_blueprint(sysid, family_views(self.cfg))
 
-    def make(sysid: int) -> list[Any]:
+    def __call__(self, sysid: int) -> list[Any]:
+        args, cfg = self.args, self.cfg
         sinks: list[Any] = []
+        rrd = None
         if getattr(args, "rrd", None):
-            from gcs_monitor.sinks.rerun_sink import RerunSink
-
             rrd = Path(args.rrd)
             if sysid != 1:
                 rrd = rrd.with_name(f"{rrd.stem}_v{sysid}{rrd.suffix}")
-            sinks.append(RerunSink(sysid, rrd_path=rrd, plot_rate_hz=cfg.sinks.rerun_rate_hz,
-                                   blueprint=blueprint(sysid)))
-        elif getattr(args, "web", False):
+        if rrd is not None or self.viewer is not None:
             from gcs_monitor.sinks.rerun_sink import RerunSink
 
-            sink = RerunSink(sysid, web=True, plot_rate_hz=cfg.sinks.rerun_rate_hz,
-                             blueprint=blueprint(sysid))
-            print(f"vehicle {sysid}: Rerun web viewer at {sink.viewer_url}", flush=True)
-            sinks.append(sink)
-        if getattr(args, "zenoh", False) or cfg.sinks.zenoh:
+            sinks.append(RerunSink(
+                sysid, rrd_path=rrd, plot_rate_hz=cfg.sinks.rerun_rate_hz,
+                connect_grpc=self.viewer.grpc_url if self.viewer is not None else None,
+                blueprint=self.blueprint(sysid)))
+        if self.bus is not None:
             from gcs_monitor.sinks.zenoh_sink import ZenohSink
 
-            listen = list(args.zenoh_listen or cfg.sinks.zenoh_listen)
-            connect = list(args.zenoh_connect or cfg.sinks.zenoh_connect)
-            if state["zenoh_listening"]:  # later vehicles join the first one's session
-                connect, listen = connect + listen, []
-            state["zenoh_listening"] = True
-            sinks.append(ZenohSink(sysid, listen=listen, connect=connect,
+            sinks.append(ZenohSink(sysid, bus=self.bus,
                                    estimate_rate_hz=cfg.sinks.estimate_rate_hz))
         if getattr(args, "mavlink_alarms", None):
             from gcs_monitor.sinks.mavlink_sink import COMPID_DEFAULT, MavlinkAlarmSink
@@ -70,20 +94,108 @@ def _sinks_factory(args: argparse.Namespace, cfg: MonitorConfig) -> Callable[[in
                 args.mavlink_alarms, vehicle=sysid, sysid=args.mavlink_alarms_sysid,
                 compid=args.mavlink_alarms_compid or COMPID_DEFAULT,
                 named_values=args.mavlink_named_values, queue_size=cfg.sinks.queue_size))
-        if journal is not None:
-            sinks.append(journal)
+        if self.journal is not None:
+            sinks.append(_Shared(self.journal))
         return sinks
 
-    return make
+    def close(self) -> None:
+        if self.journal is not None:
+            self.journal.close()
+        if self.bus is not None:
+            self.bus.close()
+        if self.viewer is not None:
+            self.viewer.close()
+
+
+class _Shared:
+    """A sink every vehicle shares (the journal): closed by its owner, not by a vehicle."""
+
+    def __init__(self, sink: Any) -> None:
+        self.sink = sink
+
+    def publish(self, frame: Any, out: Any) -> None:
+        self.sink.publish(frame, out)
+
+    def update_health(self, health: dict[str, Any]) -> None:
+        self.sink.update_health(health)
+
+    def close(self) -> None:
+        pass
+
+
+def _add_zenoh_args(p: argparse.ArgumentParser, *, listen_default: str,
+                    connect_default: str, mode_default: str = "peer") -> None:
+    g = p.add_argument_group("Zenoh")
+    g.add_argument("--zenoh-listen", action="append", metavar="ENDPOINT",
+                   help=f"endpoint to listen on, tcp/HOST:PORT or tls/HOST:PORT ({listen_default})")
+    g.add_argument("--zenoh-connect", action="append", metavar="ENDPOINT",
+                   help=f"router or peer to connect to ({connect_default})")
+    g.add_argument("--zenoh-mode", choices=["peer", "client", "router"], default=None,
+                   help=f"Zenoh mode (default {mode_default}, or the config file's)")
+    g.add_argument("--zenoh-config", type=Path, metavar="FILE",
+                   help="Zenoh JSON5 configuration: TLS (transport/link/tls), access control "
+                        "(access_control), ...; the options above override it")
+    g.add_argument("--zenoh-ca", type=Path, metavar="PEM",
+                   help="TLS: the CA certificate that verifies the other side")
+    g.add_argument("--zenoh-cert", type=Path, metavar="PEM",
+                   help="TLS: this side's certificate (mutual TLS: listeners then require one)")
+    g.add_argument("--zenoh-key", type=Path, metavar="PEM", help="TLS: this side's private key")
+    g.add_argument("--zenoh-lease-s", type=float, metavar="S",
+                   help="a peer that goes silent is dropped after this long (Zenoh: 10 s)")
+
+
+def _zenoh_options(args: argparse.Namespace, *, connect_timeout_s: float | None = None,
+                   listen: Sequence[str] | None = None,
+                   connect: Sequence[str] | None = None) -> Any:
+    from gcs_monitor.link.zenoh_bus import ZenohOptions
+
+    listen = listen if listen is not None else getattr(args, "zenoh_listen", None)
+    connect = connect if connect is not None else getattr(args, "zenoh_connect", None)
+    return ZenohOptions(
+        mode=getattr(args, "zenoh_mode", None),
+        listen=tuple(listen) if listen else None,
+        connect=tuple(connect) if connect else None,
+        config_file=getattr(args, "zenoh_config", None),
+        tls_ca=getattr(args, "zenoh_ca", None), tls_cert=getattr(args, "zenoh_cert", None),
+        tls_key=getattr(args, "zenoh_key", None),
+        connect_timeout_s=connect_timeout_s, lease_s=getattr(args, "zenoh_lease_s", None))
+
+
+def _add_signing_args(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("MAVLink 2 signing")
+    g.add_argument("--signing-key", type=Path, metavar="FILE",
+                   help="signing key (64 hex characters or 32 raw bytes): badly signed and "
+                        "replayed packets are rejected, counted and alarmed (LINK/signature)")
+    g.add_argument("--require-signing", action="store_true",
+                   help="also reject unsigned packets (needs --signing-key)")
+
+
+def _decoder(args: argparse.Namespace) -> Any:
+    """The link decoder of a command: with the signing key and policy of its options."""
+    from gcs_monitor.link.decode import Decoder
+
+    key_file = getattr(args, "signing_key", None)
+    if getattr(args, "require_signing", False) and key_file is None:
+        raise ValueError("--require-signing needs --signing-key FILE")
+    if key_file is None:
+        return Decoder()
+    from gcs_monitor.link.signing import load_signing_key
+
+    return Decoder(signing_key=load_signing_key(key_file),
+                   require_signing=bool(args.require_signing))
 
 
 def _add_sink_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--config", type=Path, help="monitor TOML (defaults suit the simulator)")
     p.add_argument("--rrd", type=Path, help="write a Rerun recording (.rrd) per vehicle")
-    p.add_argument("--web", action="store_true", help="serve the Rerun web viewer on localhost")
+    p.add_argument("--web", action="store_true",
+                   help="serve the Rerun web viewer (with --rrd: both)")
+    p.add_argument("--web-bind", default="127.0.0.1", metavar="ADDR",
+                   help="address the web viewer listens on (default 127.0.0.1: this host only)")
+    p.add_argument("--web-port", type=int, default=9090, help="web viewer port (9090)")
+    p.add_argument("--web-grpc-port", type=int, default=9876,
+                   help="the viewer's gRPC port (9876)")
     p.add_argument("--zenoh", action="store_true", help="publish alarms/estimates/health on Zenoh")
-    p.add_argument("--zenoh-listen", action="append", help=f"endpoint (default {DEFAULT_ZENOH})")
-    p.add_argument("--zenoh-connect", action="append", help="router/peer endpoint to connect")
     p.add_argument("--journal", type=Path, help="append alarms as JSON lines to this file")
     p.add_argument("--record-tlog", type=Path, help="record the raw input to a .tlog")
     p.add_argument("--mavlink-alarms", metavar="URL",
@@ -98,6 +210,7 @@ def _add_sink_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--mavlink-named-values", action="store_true",
                    help="also send each set's fused value as NAMED_VALUE_FLOAT")
     p.add_argument("--quiet", action="store_true", help="print only the summary")
+    _add_zenoh_args(p, listen_default=DEFAULT_ZENOH, connect_default="none")
 
 
 def _add_log_args(p: argparse.ArgumentParser) -> None:
@@ -112,15 +225,33 @@ def _add_log_args(p: argparse.ArgumentParser) -> None:
                         "above it; default 100 Hz, the contract's HIGHRES_IMU rate)")
 
 
+def _source_counters(src: Any) -> dict[str, Any]:
+    return {"dropped_chunks": src.dropped_chunks, "dropped_bytes": src.dropped_bytes,
+            "resync_bytes": src.resync_bytes, "kernel_drops": getattr(src, "kernel_drops", None),
+            "truncated_bytes": getattr(src, "truncated_bytes", 0)}
+
+
 def _run_source(src: Any, args: argparse.Namespace, *, duration_s: float | None = None,
                 progress: Any = None, sinks_for: Callable[[int], list[Any]] | None = None,
                 on_wall: Callable[[Any, float], None] | None = None,
                 raw: Callable[[Any], None] | None = None,
-                summary: bool = True) -> Any:
-    """Run a byte source through a Monitor; return the Monitor (its health and events)."""
+                summary: bool = True, inherit: bool = False, banner: str = "") -> Any:
+    """Run a byte source through a Monitor; return the Monitor (its health and events).
+
+    ``inherit``: alarms the journal says are active are inherited (a restarted live monitor:
+    no duplicate raise); a replay starts afresh."""
     from gcs_monitor.monitor import Monitor
 
     cfg = load_config(args.config)
+    outputs = None
+    try:
+        decoder = _decoder(args)
+        if sinks_for is None:
+            outputs = _Outputs(args, cfg)
+            sinks_for = outputs
+    except BaseException:
+        src.close()
+        raise
     tlog_out = None
     if args.record_tlog:
         from gcs_monitor.sinks.tlog_writer import TlogWriter
@@ -132,10 +263,16 @@ def _run_source(src: Any, args: argparse.Namespace, *, duration_s: float | None 
         for f in raws:
             f(msg)
 
-    monitor = Monitor(cfg, sinks_for=sinks_for or _sinks_factory(args, cfg),
-                      raw_sink=raw_sink if raws else None)
+    if banner:
+        print(banner, flush=True)
+    active = outputs.journal.active_alarms() if inherit and outputs is not None and \
+        outputs.journal is not None else None
+    monitor: Any = Monitor(cfg, sinks_for=sinks_for, decoder=decoder,
+                      raw_sink=raw_sink if raws else None, inherit=active)
     t0 = time.monotonic()
     next_health = t0
+    rejected = 0
+    next_reject_note = t0
     try:
         for data, wall in src:
             for ev in monitor.feed(data, wall):
@@ -144,11 +281,16 @@ def _run_source(src: Any, args: argparse.Namespace, *, duration_s: float | None 
             now = time.monotonic()
             if on_wall is not None:
                 on_wall(monitor, now)
+            c = monitor.decoder.counters
+            if c.bad_signature > rejected and now >= next_reject_note:
+                # said at once, then at most every 5 s while it goes on
+                print(f"gcs-monitor: {c.bad_signature - rejected} packets rejected by "
+                      f"signing (unsigned {c.unsigned_rejected}, wrong key {c.wrong_key}, "
+                      f"replayed {c.replayed} so far)", file=sys.stderr, flush=True)
+                rejected = c.bad_signature
+                next_reject_note = now + 5.0
             if now >= next_health:
-                monitor.source_counters = {"dropped_chunks": src.dropped_chunks,
-                                           "dropped_bytes": src.dropped_bytes,
-                                           "resync_bytes": src.resync_bytes,
-                                           "truncated_bytes": getattr(src, "truncated_bytes", 0)}
+                monitor.source_counters = _source_counters(src)
                 monitor.publish_health()
                 next_health = now + 1.0
             if duration_s is not None and now - t0 >= duration_s:
@@ -160,15 +302,14 @@ def _run_source(src: Any, args: argparse.Namespace, *, duration_s: float | None 
         print("interrupted", file=sys.stderr)
     finally:
         src.close()
-        monitor.source_counters = {"dropped_chunks": src.dropped_chunks,
-                                   "dropped_bytes": src.dropped_bytes,
-                                   "resync_bytes": src.resync_bytes,
-                                           "truncated_bytes": getattr(src, "truncated_bytes", 0)}
+        monitor.source_counters = _source_counters(src)
         monitor.close()
         if tlog_out is not None:
             tlog_out.close()
         if progress is not None:
             progress.close()
+        if outputs is not None:
+            outputs.close()
     monitor.wall_s = time.monotonic() - t0
     if summary:
         _print_summary(monitor, monitor.wall_s)
@@ -184,8 +325,12 @@ def _print_summary(monitor: Any, wall_s: float) -> None:
     h = monitor.health()
     print(f"\n== summary ({wall_s:.1f} s wall) ==")
     link = h["link"]
+    kd = link.get("kernel_drops")
     print(f"link: {link['bytes_in']} bytes, {link['parse_errors']} CRC/parse errors, "
-          f"{link['bad_signature']} bad signatures, {link.get('dropped_chunks', 0)} dropped chunks")
+          f"{link['bad_signature']} rejected by signing (unsigned {link['unsigned_rejected']}, "
+          f"wrong key {link['wrong_key']}, replayed {link['replayed']}), "
+          f"{link.get('dropped_chunks', 0)} dropped chunks, "
+          f"{'n/a' if kd is None else kd} kernel drops")
     if not h["vehicles"]:
         print("no vehicle seen")
     for sysid, v in h["vehicles"].items():
@@ -196,11 +341,22 @@ def _print_summary(monitor: Any, wall_s: float) -> None:
               f"({lk['loss_pct']:.2f} %), reboots {lk['reboots']}, "
               f"bad values {sum(lk['bad_values'].values())}, "
               f"vehicle time {v['vehicle_time_s']:.1f} s")
+        if lk["signature_failures"]:
+            print(f"  signing: {lk['signature_failures']} rejected (unsigned "
+                  f"{lk['unsigned_rejected']}, wrong key {lk['wrong_key']}, replayed "
+                  f"{lk['replayed']}), {lk['signed_packets']} signed accepted")
+        for note in v["notes"]:
+            print(f"  warning: {note}")
         for name, fam in v["families"].items():
             print("  " + family_line(name, fam))
+    for sysid, st in sorted(monitor.decoder.stats.items()):
+        if str(sysid) not in h["vehicles"] and st.signature_failures:
+            print(f"sender {sysid}: {st.signature_failures} packets rejected by signing "
+                  f"(unsigned {st.unsigned_rejected}, wrong key {st.wrong_key}, replayed "
+                  f"{st.replayed}), none accepted")
     rows = summarise_alarms(monitor.events)
     if rows:
-        print("\nalarms (per channel: first raise | final state):")
+        print("\nalarms (per vehicle and channel: first raise | final state):")
         for r in rows:
             print("  " + r)
     else:
@@ -211,10 +367,12 @@ def _print_summary(monitor: Any, wall_s: float) -> None:
 def cmd_live(args: argparse.Namespace) -> int:
     from gcs_monitor.link.transports import open_source
 
-    src = open_source(args.url, idle_timeout_s=args.idle_timeout)
-    print(f"listening on {args.url} (Ctrl-C to stop)", flush=True)
+    src = open_source(args.url, idle_timeout_s=args.idle_timeout,
+                      zenoh_options=_zenoh_options(args) if args.url.startswith("zenoh:")
+                      else None)
+    banner = f"listening on {args.url} (Ctrl-C to stop)"
     if not args.request_rates:
-        _run_source(src, args, duration_s=args.duration)
+        _run_source(src, args, duration_s=args.duration, inherit=True, banner=banner)
         return 0
     from gcs_monitor.link.rates import RateRequester, rates_table
 
@@ -226,7 +384,109 @@ def cmd_live(args: argparse.Namespace) -> int:
             print("\nmessage rates (requested with MAV_CMD_SET_MESSAGE_INTERVAL, "
                   "REQUEST_DATA_STREAM where not accepted):\n" + rates_table(res), flush=True)
 
-    _run_source(src, args, duration_s=args.duration, raw=req.on_message, on_wall=poll)
+    _run_source(src, args, duration_s=args.duration, raw=req.on_message, on_wall=poll,
+                inherit=True, banner=banner)
+    return 0
+
+
+def cmd_bridge(args: argparse.Namespace) -> int:
+    from gcs_monitor.fleet.bridge import Bridge
+    from gcs_monitor.link.transports import open_source
+    from gcs_monitor.link.zenoh_bus import RoleDefaults, open_bus
+
+    decoder = _decoder(args)
+    bus = open_bus(_zenoh_options(args), what="bridge",
+                   defaults=RoleDefaults(mode="client", connect=(DEFAULT_ZENOH,)))
+    try:
+        src = open_source(args.url, idle_timeout_s=args.idle_timeout,
+                          speed=args.speed if args.url.endswith(".tlog") else None)
+    except BaseException:
+        bus.close()
+        raise
+    print(f"bridge: {args.url} -> mavlink/<sysid>/rx on {', '.join(bus.connect + bus.listen)} "
+          f"(Ctrl-C to stop)", flush=True)
+    bridge = Bridge(src, bus, decoder=decoder, name=args.name, flush_s=args.flush_ms / 1000.0)
+    try:
+        st = bridge.run(duration_s=args.duration)
+    finally:
+        src.close()
+        bus.close()
+    c = decoder.counters
+    kd = getattr(src, "kernel_drops", None)
+    print(f"bridge: {st.frames} frames in {st.samples} samples from "
+          f"{len(st.per_sysid)} vehicles; {c.parse_errors} CRC/parse errors, "
+          f"{c.bad_signature} rejected by signing (unsigned {c.unsigned_rejected}, wrong key "
+          f"{c.wrong_key}, replayed {c.replayed}), {src.dropped_chunks} dropped chunks, "
+          f"{'n/a' if kd is None else kd} kernel drops")
+    return 0
+
+
+def cmd_worker(args: argparse.Namespace) -> int:
+    import signal
+
+    from gcs_monitor.fleet.ownership import parse_shard
+    from gcs_monitor.fleet.worker import Worker, WorkerOptions, default_worker_id
+    from gcs_monitor.link.signing import load_signing_key
+    from gcs_monitor.link.zenoh_bus import RoleDefaults, open_bus
+
+    cfg = load_config(args.config)
+    if args.require_signing and args.signing_key is None:
+        raise ValueError("--require-signing needs --signing-key FILE")
+    opts = WorkerOptions(
+        group=args.group, worker_id=args.name or default_worker_id(), scope=args.keyexpr,
+        shard=parse_shard(args.shard) if args.shard else None, buffer_s=args.buffer_s,
+        grace_s=args.grace_s,
+        signing_key=load_signing_key(args.signing_key) if args.signing_key else None,
+        require_signing=args.require_signing, journal=args.journal)
+    bus = open_bus(_zenoh_options(args), what="worker",
+                   defaults=RoleDefaults(mode="client", connect=(DEFAULT_ZENOH,)))
+    try:
+        worker = Worker(cfg, opts, bus, on_event=None if args.quiet else
+                        (lambda ev: print(format_event(ev), flush=True)))
+        if worker.journal is not None and worker.journal.repair.repaired:
+            print(f"gcs-monitor: journal {args.journal}: {worker.journal.repair.describe()}",
+                  file=sys.stderr, flush=True)
+        signal.signal(signal.SIGTERM, lambda *_: worker.stop())
+        print(f"worker {opts.worker_id} (group {opts.group}, scope {opts.scope}"
+              + (f", shard {args.shard}" if args.shard else "") + ") on "
+              + ", ".join(bus.connect + bus.listen) + " (Ctrl-C to stop)", flush=True)
+        try:
+            worker.run(duration_s=args.duration)
+        except KeyboardInterrupt:
+            print("interrupted", file=sys.stderr)
+        finally:
+            worker.close()
+    finally:
+        bus.close()
+    print(f"worker {opts.worker_id}: owned {sorted(worker.owned) or '-'} at the end; "
+          f"{len(worker.events)} alarm events; {len(worker.handovers)} vehicles taken")
+    rows = summarise_alarms(worker.events)
+    for r in rows:
+        print("  " + r)
+    return 0
+
+
+def cmd_router(args: argparse.Namespace) -> int:
+    from gcs_monitor.link.zenoh_bus import RoleDefaults, open_bus
+
+    opts = _zenoh_options(args)
+    if opts.mode is None:
+        import dataclasses
+
+        opts = dataclasses.replace(opts, mode="router")
+    bus = open_bus(opts, what="router", defaults=RoleDefaults(mode="router",
+                                                              listen=(DEFAULT_ZENOH,)))
+    print(f"router {bus.zid} listening on {', '.join(bus.listen) or '-'}"
+          + (f", connected to {', '.join(bus.connect)}" if bus.connect else "")
+          + " (Ctrl-C to stop)", flush=True)
+    try:
+        t_end = None if args.duration is None else time.monotonic() + args.duration
+        while t_end is None or time.monotonic() < t_end:
+            time.sleep(0.2)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        bus.close()
     return 0
 
 
@@ -336,8 +596,11 @@ def cmd_replay(args: argparse.Namespace) -> int:
 def cmd_alarms(args: argparse.Namespace) -> int:
     from gcs_monitor.sinks.zenoh_sink import run_alarm_printer
 
-    run_alarm_printer(args.keyexpr, connect=args.connect or [DEFAULT_ZENOH],
-                      duration_s=args.duration, max_alarms=args.max, json_lines=args.json)
+    connect = args.connect or args.zenoh_connect or [DEFAULT_ZENOH]
+    opts = _zenoh_options(args, connect=connect, connect_timeout_s=args.connect_timeout)
+    run_alarm_printer(args.keyexpr, connect=connect, duration_s=args.duration,
+                      max_alarms=args.max, json_lines=args.json, options=opts,
+                      history=args.history)
     return 0
 
 
@@ -551,7 +814,51 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--rates-report-after", type=float, default=5.0,
                    help="seconds after the requests to measure and report the rates")
     _add_sink_args(s)
+    _add_signing_args(s)
     s.set_defaults(func=cmd_live)
+    s = sub.add_parser("bridge", help="put a link's raw MAVLink frames on Zenoh "
+                                      "(mavlink/<sysid>/rx) for fleet workers")
+    s.add_argument("url", help="udpin:HOST:PORT | udpout:HOST:PORT | tcp:HOST:PORT | /dev/ttyX"
+                               "[:BAUD] | FILE.tlog")
+    s.add_argument("--name", default="bridge", help="name of the bridge's health queryable")
+    s.add_argument("--duration", type=float, help="stop after this many seconds")
+    s.add_argument("--idle-timeout", type=float, help="stop after this long without data (s)")
+    s.add_argument("--speed", type=float, help="replay speed of a .tlog (default: as fast as "
+                                                 "possible)")
+    s.add_argument("--flush-ms", type=float, default=10.0,
+                   help="a vehicle's frames wait at most this long to be sent together (10)")
+    _add_signing_args(s)
+    _add_zenoh_args(s, listen_default="none", connect_default=DEFAULT_ZENOH,
+                    mode_default="client")
+    s.set_defaults(func=cmd_bridge)
+    s = sub.add_parser("worker", help="monitor a share of the fleet from Zenoh; take over the "
+                                      "vehicles of workers that stop")
+    s.add_argument("--keyexpr", default="mavlink/*/rx",
+                   help="raw frames this worker may monitor (default mavlink/*/rx: any "
+                        "vehicle; mavlink/3/rx: only vehicle 3)")
+    s.add_argument("--shard", metavar="I/N", help="primary share: the system ids with "
+                   "sysid %% N == I (the others take them when no primary lives)")
+    s.add_argument("--group", default="default", help="fleet group (default 'default')")
+    s.add_argument("--name", help="worker id (default HOST-PID)")
+    s.add_argument("--buffer-s", type=float, default=15.0,
+                   help="seconds of other workers' vehicles kept for a takeover without a gap")
+    s.add_argument("--grace-s", type=float, default=20.0,
+                   help="vehicle time within which an inherited alarm must be confirmed")
+    s.add_argument("--duration", type=float, help="stop after this many seconds")
+    s.add_argument("--config", type=Path, help="monitor TOML (defaults suit the simulator)")
+    s.add_argument("--journal", type=Path, help="append alarms as JSON lines to this file "
+                                                "(active ones are inherited at a restart)")
+    s.add_argument("--quiet", action="store_true", help="print only the summary")
+    _add_signing_args(s)
+    _add_zenoh_args(s, listen_default="none", connect_default=DEFAULT_ZENOH,
+                    mode_default="client")
+    s.set_defaults(func=cmd_worker)
+    s = sub.add_parser("router", help="a Zenoh router (what zenohd is at a site) for bridges, "
+                                      "workers and subscribers")
+    s.add_argument("--duration", type=float, help="stop after this many seconds")
+    _add_zenoh_args(s, listen_default=DEFAULT_ZENOH, connect_default="none",
+                    mode_default="router")
+    s.set_defaults(func=cmd_router)
     s = sub.add_parser("replay", help="replay flight logs (.tlog, ArduPilot .bin/.log, PX4 .ulg, "
                                       "CSV) through the monitor")
     s.add_argument("inputs", nargs="+", type=Path, metavar="LOG")
@@ -569,9 +876,15 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("alarms", help="subscribe to the Zenoh alarm stream and print alarms")
     s.add_argument("keyexpr", nargs="?", default="gcs/*/alarm")
     s.add_argument("--connect", action="append", help=f"endpoint (default {DEFAULT_ZENOH})")
+    s.add_argument("--connect-timeout", type=float, default=5.0,
+                   help="fail when no endpoint answers within this many seconds (5)")
+    s.add_argument("--history", type=int, default=256,
+                   help="recent alarms fetched per vehicle at start (0: live only)")
     s.add_argument("--duration", type=float)
     s.add_argument("--max", type=int, help="stop after this many alarms")
     s.add_argument("--json", action="store_true", help="print raw JSON payloads")
+    _add_zenoh_args(s, listen_default="none", connect_default=DEFAULT_ZENOH,
+                    mode_default="client")
     s.set_defaults(func=cmd_alarms)
     s = sub.add_parser("config", help="print the default configuration, or check a file and "
                                       "print the configuration it gives")
@@ -638,14 +951,31 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
                         format="%(levelname)s %(name)s: %(message)s")
+    from gcs_monitor.link.zenoh_bus import ZenohError
+
     try:
         return int(args.func(args))
     except ConfigError as exc:
         print(f"gcs-monitor: invalid configuration: {exc}", file=sys.stderr)
         return 2
-    except (FileNotFoundError, ValueError) as exc:
+    except (FileNotFoundError, ValueError, OverflowError) as exc:
         print(f"gcs-monitor: {exc}", file=sys.stderr)
         return 2
+    except ZenohError as exc:
+        print(f"gcs-monitor: {exc}", file=sys.stderr)
+        return 1
+    except OSError as exc:
+        print(f"gcs-monitor: {exc.strerror or exc}"
+              + (f": {exc.filename}" if exc.filename else ""), file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        return 130
+    except Exception as exc:  # noqa: BLE001 - an operator gets one line; -v shows the trace
+        if args.verbose:
+            raise
+        print(f"gcs-monitor: internal error: {type(exc).__name__}: {exc} (run with -v for the "
+              f"traceback)", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":

@@ -48,12 +48,18 @@ def type_text(ev: AlarmEvent) -> str:
     return f"{ft.value} ({ev.confidence:.2f})"
 
 
+def vehicle_label(vehicle: int) -> str:
+    """The vehicle column of every line: ``v<sysid>``."""
+    return f"v{vehicle}"
+
+
 def format_event(ev: AlarmEvent) -> str:
-    """One line per alarm event: vehicle time, state, channel, kind, fault type (and its
-    confidence), magnitude in display units, estimator and message."""
+    """One line per alarm event: vehicle, vehicle time, state, channel, kind, fault type (and
+    its confidence), magnitude in display units, estimator and message."""
     name = channel_label(ev.channel)
     mag_s = magnitude_text(ev.channel.kind, ev.magnitude)
-    return (f"t={ev.t_us / 1e6:8.2f}s  {ev.state.value.upper():8s} {name:12s} {ev.kind.value:14s} "
+    return (f"{vehicle_label(ev.vehicle):4s} t={ev.t_us / 1e6:8.2f}s  "
+            f"{ev.state.value.upper():8s} {name:12s} {ev.kind.value:14s} "
             f"{type_text(ev):18s} {mag_s:14s} ({ev.estimator}) {ev.message}")
 
 
@@ -68,19 +74,21 @@ def family_line(name: str, fam: dict[str, Any]) -> str:
 
 
 def first_and_final(events: Sequence[AlarmEvent]) -> list[tuple[AlarmEvent, AlarmEvent, int]]:
-    """Per channel that raised, in order of its first raise: (first RAISED event, the channel's
-    last event, how many times it was raised)."""
-    first: dict[ChannelId, AlarmEvent] = {}
-    last: dict[ChannelId, AlarmEvent] = {}
-    raised: dict[ChannelId, int] = {}
+    """Per vehicle and channel that raised, in order of the vehicle then its first raise:
+    (first RAISED event, the channel's last event, how many times it was raised). Two vehicles'
+    ``aoa1`` are two rows."""
+    first: dict[tuple[int, ChannelId], AlarmEvent] = {}
+    last: dict[tuple[int, ChannelId], AlarmEvent] = {}
+    raised: dict[tuple[int, ChannelId], int] = {}
     for ev in events:
+        k = (ev.vehicle, ev.channel)
         if ev.state is AlarmState.RAISED:
-            first.setdefault(ev.channel, ev)
-            raised[ev.channel] = raised.get(ev.channel, 0) + 1
-        if ev.channel in first:
-            last[ev.channel] = ev
-    return [(ev, last[ch], raised[ch])
-            for ch, ev in sorted(first.items(), key=lambda kv: kv[1].t_us)]
+            first.setdefault(k, ev)
+            raised[k] = raised.get(k, 0) + 1
+        if k in first:
+            last[k] = ev
+    return [(ev, last[k], raised[k])
+            for k, ev in sorted(first.items(), key=lambda kv: (kv[0][0], kv[1].t_us))]
 
 
 def final_state(ev: AlarmEvent) -> str:
@@ -88,7 +96,8 @@ def final_state(ev: AlarmEvent) -> str:
 
 
 def summarise_alarms(events: Sequence[AlarmEvent]) -> list[str]:
-    """One line per channel that raised, in order of the first raise: the first raise (time,
+    """One line per vehicle and channel that raised (the line starts with the vehicle, ``v1``),
+    in order of vehicle and first raise: the first raise (time,
     fault type, magnitude) and, separately, the final state (active or cleared, since when, and
     the type and magnitude it ended with). Magnitudes in display units; ``-`` where there is none
     (a lost set, no data). The final state is the channel's last event: its time, active or
@@ -98,7 +107,8 @@ def summarise_alarms(events: Sequence[AlarmEvent]) -> list[str]:
         kind = first.channel.kind
         again = f", raised {n} times" if n > 1 else ""
         out.append(
-            f"{channel_label(first.channel):12s} {first.kind.value:16s} "
+            f"{vehicle_label(first.vehicle):4s} {channel_label(first.channel):12s} "
+            f"{first.kind.value:16s} "
             f"first raise t={first.t_us / 1e6:7.2f}s {type_text(first):18s} "
             f"{magnitude_text(kind, first.magnitude):12s} | final (t={last.t_us / 1e6:7.2f}s): "
             f"{final_state(last):7s} {type_text(last):18s} "

@@ -7,7 +7,7 @@ import logging
 import sys
 from pathlib import Path
 
-from sim_vehicle.mavlink_out import parse_hostport
+from sim_vehicle.mavlink_out import load_signing_key, parse_hostport
 from sim_vehicle.scenario import ScenarioError, list_presets, load_scenario, with_overrides
 
 EXIT_BAD_INPUT = 2
@@ -26,6 +26,9 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--duration", type=float, default=None, help="override duration, s")
     r.add_argument("--seed", type=int, default=None, help="override seed")
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
+    r.add_argument("--signing-key", metavar="FILE",
+                   help="MAVLink 2 sign every packet with this key (64 hex characters or 32 "
+                        "raw bytes)")
     return p
 
 
@@ -64,7 +67,8 @@ def main(argv: list[str] | None = None) -> int:
         sc = with_overrides(load_scenario(args.scenario), duration_s=args.duration,
                             seed=args.seed)
         udp = parse_hostport(args.udp)
-    except (ScenarioError, ValueError) as e:
+        key = load_signing_key(args.signing_key) if args.signing_key else None
+    except (ScenarioError, ValueError, OSError) as e:
         print(f"sim-vehicle: error: {e}", file=sys.stderr)
         return EXIT_BAD_INPUT
     from sim_vehicle.run import run_scenario
@@ -74,7 +78,7 @@ def main(argv: list[str] | None = None) -> int:
               "(Ctrl-C to stop)", file=sys.stderr)
     try:
         res = run_scenario(sc, Path(args.out), live=args.live, udp=udp,
-                           progress=not args.no_progress)
+                           progress=not args.no_progress, signing_key=key)
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130

@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any, Protocol
 
 from sim_vehicle.actuators.sensors import SurfaceSensorNoise, SurfaceSensors
-from sim_vehicle.mavlink_out import MavlinkEncoder, TlogWriter, UdpSender
+from sim_vehicle.mavlink_out import MavlinkEncoder, MavlinkSigner, TlogWriter, UdpSender
 from sim_vehicle.scenario import Scenario
 from sim_vehicle.sensors.noise import SENSOR_SETS, SensorSet
 from sim_vehicle.sensors.suite import SensorSuite
@@ -220,12 +220,14 @@ def run_scenario(
     progress: bool = True,
     simulation_factory: SimulationFactory = make_simulation,
     feedback: FeedbackHook | None = None,
+    signing_key: bytes | None = None,
 ) -> RunResult:
     """Run a scenario to a .tlog (file mode) or to UDP in real time (live), plus ground truth.
 
     Files in ``out_dir``: ``<name>_s<seed>.tlog`` (file mode), ``.truth.npz``,
     ``.scenario.toml``; each written to a temporary name and renamed when complete.
-    ``feedback`` is passed to :func:`iter_run` (closed-loop studies).
+    ``feedback`` is passed to :func:`iter_run` (closed-loop studies). ``signing_key``: every
+    packet is MAVLink 2 signed (:class:`~sim_vehicle.mavlink_out.MavlinkSigner`).
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -247,13 +249,14 @@ def run_scenario(
         if bar is not None:
             bar.update(1)
 
+    signer = None if signing_key is None else MavlinkSigner(signing_key, wall_clock=live)
     t0 = time.perf_counter()
     ok = False
     try:
         for t_us, _, pkt in iter_run(sc, simulation_factory=simulation_factory,
                                      record_truth=True, run_state=rs, on_step=on_step,
                                      feedback=feedback):
-            sink.write(t_us, pkt)
+            sink.write(t_us, pkt if signer is None else signer.sign(pkt, t_us))
         ok = True
     finally:
         if isinstance(sink, TlogWriter):

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from enum import StrEnum
 
 from gcs_monitor.core.types import ChannelId
@@ -58,6 +58,9 @@ class AlarmEvent:
     confidence : confidence in ``fault_type``, in [0, 1]: the classifier's margin for an
         inferred type (bias, drift, ...; :mod:`gcs_monitor.fdi.classify`), 1 for an observed
         one (link, no_data), 0 for unknown
+    alarm_id : the stable id of the alarm this transition belongs to (the same on its raise,
+        updates and clear), given by the monitor from vehicle, channel and raise time; ``""``
+        until then. Not part of equality: the FDI layer's events compare as before
     """
 
     t_us: int
@@ -72,6 +75,7 @@ class AlarmEvent:
     message: str = ""
     vehicle: int = 1
     confidence: float = 0.0
+    alarm_id: str = field(default="", compare=False)
 
 
 @dataclass(frozen=True, slots=True)

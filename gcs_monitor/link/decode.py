@@ -14,6 +14,11 @@ added on top:
 
 Everything that cannot be passed on is counted (``counters`` link-wide, ``stats[sysid]`` per
 vehicle), never raised.
+
+**Signing** (MAVLink 2, :mod:`gcs_monitor.link.signing`): with a key, a signed packet is passed on
+only if its signature verifies and its timestamp is newer than its stream's last one; unsigned
+packets only when signing is not required. Rejected packets are counted by cause (unsigned,
+wrong key, replayed), per claimed sender and link-wide, and never reach the families.
 """
 
 from __future__ import annotations
@@ -23,6 +28,7 @@ from collections.abc import Callable, Iterable
 from typing import Any
 
 from gcs_monitor.link.mav import mavlink
+from gcs_monitor.link.signing import SigningMAVLink
 from gcs_monitor.link.stats import LinkCounters, LinkStats
 
 log = logging.getLogger(__name__)
@@ -33,6 +39,19 @@ MAV2_MAGIC = 0xFD
 MAV2_SYSID_OFFSET = 5
 MAV1_SYSID_OFFSET = 3
 MAX_BUFFER_BYTES = 1 << 16  # a stuck partial frame can never hold more than this
+MAV2_IFLAG_SIGNED = 0x01
+# messages that carry the sender's clock (time since boot, ms): they bound burst losses
+CLOCK_IDS = frozenset(mid for mid, cls in mavlink.mavlink_map.items()
+                      if "time_boot_ms" in cls.fieldnames)
+# messages with an instance id and a time stamp: (payload offset of the id, time field). A
+# MAVLink 1 frame whose payload ends before that offset lacks the id (an extension): every
+# instance then reads as 0
+MAV1_INSTANCE_IDS = {
+    mid: (int(cls.instance_offset), tf)
+    for mid, cls in mavlink.mavlink_map.items()
+    if getattr(cls, "instance_field", None) and getattr(cls, "instance_offset", None) is not None
+    for tf in ("time_usec", "time_boot_ms") if tf in cls.fieldnames
+}
 
 
 def _sender(buf: bytes | bytearray) -> int | None:
@@ -53,22 +72,28 @@ class Decoder:
 
     Parameters
     ----------
-    signing_key : 32-byte MAVLink 2 signing key. When set, unsigned or badly signed packets are
-        rejected (counted as signature failures), except HEARTBEAT if ``allow_unsigned_heartbeat``.
+    signing_key : 32-byte MAVLink 2 signing key. When set, badly signed and replayed packets are
+        rejected (counted as signature failures), and so are unsigned ones if
+        ``require_signing`` (except HEARTBEAT if ``allow_unsigned_heartbeat``)
+    require_signing : reject unsigned packets (only with a key)
+    signing_timestamp : the signing clock to start from (10 µs units since 2015-01-01): a
+        stream first seen more than a minute behind it is a replay. None: now (as pymavlink's
+        ``setup_signing``)
     resync : re-scan failed frames (module docstring); False gives plain pymavlink behaviour
     """
 
-    def __init__(self, *, signing_key: bytes | None = None,
-                 allow_unsigned_heartbeat: bool = False, resync: bool = True) -> None:
+    def __init__(self, *, signing_key: bytes | None = None, require_signing: bool = True,
+                 allow_unsigned_heartbeat: bool = False, signing_timestamp: int | None = None,
+                 resync: bool = True) -> None:
         self.resync = resync
-        self._mav = mavlink.MAVLink(None)
+        self.signing = signing_key is not None
+        self._mav = SigningMAVLink(None) if signing_key is not None else mavlink.MAVLink(None)
         self._mav.robust_parsing = True
         if signing_key is not None:
-            self._mav.signing.secret_key = signing_key
-            self._mav.signing.sign_outgoing = False
-            self._mav.signing.allow_unsigned_callback = (
-                (lambda mav, msg_id: msg_id == MSG_HEARTBEAT) if allow_unsigned_heartbeat
-                else None)
+            assert isinstance(self._mav, SigningMAVLink)
+            self._mav.setup(signing_key, require=require_signing,
+                            allow_unsigned_heartbeat=allow_unsigned_heartbeat,
+                            timestamp=signing_timestamp)
         self.counters = LinkCounters()
         self.stats: dict[int, LinkStats] = {}
 
@@ -89,6 +114,7 @@ class Decoder:
         c.dropped_chunks = int(getattr(source, "dropped_chunks", 0))
         c.dropped_bytes = int(getattr(source, "dropped_bytes", 0))
         c.resync_bytes = int(getattr(source, "resync_bytes", 0))
+        c.kernel_drops = int(getattr(source, "kernel_drops", 0) or 0)
 
     def health(self) -> dict[str, Any]:
         """JSON-ready link health: link-wide counters and every sender's statistics."""
@@ -115,9 +141,20 @@ class Decoder:
                     st = stats.get(sysid)
                     if st is None:
                         st = stats[sysid] = LinkStats(sysid)
-                    if st.on_packet(hdr.srcComponent, hdr.seq, m._type, m._msgbuf, wall_s):
-                        if hdr.msgId == MSG_HEARTBEAT:
+                    mid = hdr.msgId
+                    if st.on_packet(hdr.srcComponent, hdr.seq, m._type, m._msgbuf, wall_s,
+                                    m.time_boot_ms if mid in CLOCK_IDS else None):
+                        if mid == MSG_HEARTBEAT:
                             st.on_heartbeat(hdr.srcComponent, m.type, m.autopilot)
+                        elif mid in MAV1_INSTANCE_IDS and m._msgbuf[0] == MAV1_MAGIC:
+                            offset, tfield = MAV1_INSTANCE_IDS[mid]
+                            if m._msgbuf[1] <= offset:  # the frame ends before the id
+                                st.on_mav1_instance(m._type, getattr(m, tfield))
+                        if self.signing:
+                            if hdr.incompat_flags & MAV2_IFLAG_SIGNED:
+                                st.signed_packets += 1
+                            else:
+                                st.unsigned_accepted += 1
                         out.append(m)
                     else:
                         c.duplicates += 1
@@ -174,8 +211,14 @@ class Decoder:
                 return
             if "signature" in reason:
                 c.bad_signature += 1
+                signed = len(raw) > 2 and raw[0] == MAV2_MAGIC and raw[2] & MAV2_IFLAG_SIGNED
+                cause = getattr(self._mav, "last_failure", "wrong_key") if signed \
+                    else "unsigned_rejected"
+                setattr(c, cause, getattr(c, cause) + 1)
                 if sysid is not None:
-                    self.vehicle_stats(sysid).signature_failures += 1
+                    st = self.vehicle_stats(sysid)
+                    st.signature_failures += 1
+                    setattr(st, cause, getattr(st, cause) + 1)
                 return
             c.parse_errors += 1
         # resync: re-scan the failed frame from its second byte (see module docstring)

@@ -3,6 +3,19 @@
 Everything the link layer cannot pass on is counted here, never raised (docs/style.md sec. 7).
 Memory is bounded: per-type tables are capped at ``MAX_TYPES`` names, sequence state is kept per
 component id (at most 256), and nothing grows with the number of messages.
+
+**Bursts longer than the sequence space.** The 8-bit MAVLink sequence number wraps every 256
+packets, so a burst of 300 lost packets reads as 43 and one of 200 as a late packet. Where the
+stream carries the sender's clock (``time_boot_ms``, ATTITUDE and GLOBAL_POSITION_INT among
+others), the count is bounded by time: between two clock samples of a (sysid, compid) stream the
+sender sent about ``rate x elapsed`` packets (``rate`` measured on that stream, in packets per
+millisecond of the sender's clock, over windows of ``RATE_WINDOW_MS``). The number lost is known
+modulo 256 exactly from the sequence numbers, so the count chosen is the one of that residue
+nearest to the time estimate: exact as long as the estimate is within 128 packets of the truth
+(at 1000 packets/s: a rate error below 128 / the burst length in ms). Only intervals that
+contain a sequence gap are corrected, so a sender that pauses is never counted as loss; a loss
+of exactly a multiple of 256 packets with no other gap stays invisible. Streams without a clock
+keep the modular count.
 """
 
 from __future__ import annotations
@@ -28,14 +41,19 @@ DUP_SUSTAIN = 256
 # the component that agree, DUP_SUSTAIN packets of the vehicle without a clock conflict.
 DUP_HEARTBEATS_CLEAR = 5
 RATE_WINDOW_S = 5.0  # recent per-type rates are measured over windows of this wall time
+RATE_WINDOW_MS = 1000  # a stream's packet rate is measured over this much of the sender's clock
+CLOCK_REBOOT_MS = 10_000  # the sender's clock stepping back by more than this: a reboot
 MAV_TYPE_GCS = 6
 NON_VEHICLE_TYPES = frozenset({MAV_TYPE_GCS, 18, 26, 27, 30})  # GCS, ONBOARD_CONTROLLER, ...
 
 
 class _SeqState:
-    """Sequence tracking of one (sysid, compid) stream."""
+    """Sequence tracking of one (sysid, compid) stream, and its clock-bounded loss interval
+    (module docstring): since the last clock sample ``clk`` (at sequence number ``s0``),
+    ``n_int`` packets were received, ``lost_int`` counted lost and ``n_back`` read as late."""
 
-    __slots__ = ("last", "last_buf", "back_ewma", "high_run", "low_run")
+    __slots__ = ("last", "last_buf", "back_ewma", "high_run", "low_run", "clk", "s0", "n_int",
+                 "lost_int", "n_back", "gap_int", "rate", "win_clk", "win_sent")
 
     def __init__(self, seq: int, buf: bytes) -> None:
         self.last = seq
@@ -43,6 +61,15 @@ class _SeqState:
         self.back_ewma = 0.0
         self.high_run = 0
         self.low_run = 0
+        self.clk = -1  # sender clock (ms) of the last clock sample; -1: none yet
+        self.s0 = seq
+        self.n_int = 0
+        self.lost_int = 0
+        self.n_back = 0
+        self.gap_int = False
+        self.rate = 0.0  # packets per ms of the sender's clock; 0: not measured yet
+        self.win_clk = -1
+        self.win_sent = 0
 
 
 @dataclass
@@ -77,7 +104,18 @@ class LinkStats:
     imu_held : IMU samples that repeat their instance's previous six values exactly (a held
         value, not a measurement; the assembler keeps the earlier sample and its time)
     unknown_messages : well-framed packets whose id is not in the dialect
-    signature_failures : MAVLink 2 packets that failed signing checks (where the sender is known)
+    signature_failures : MAVLink 2 packets that failed signing checks (where the sender is known):
+        ``unsigned_rejected`` (no signature while signing is required), ``wrong_key`` (the
+        signature does not verify: another key, or forged), ``replayed`` (a valid signature
+        with a timestamp not newer than the stream's last: a replay)
+    signed_packets : packets whose signature verified; ``unsigned_accepted`` unsigned packets
+        let through because signing was not required
+    lost_wrapped : packets of bursts longer than the sequence space, found by the clock bound
+        (included in ``lost``; module docstring)
+    mav1_no_instance : per message type, packets in MAVLink 1 framing whose instance id is a
+        MAVLink 2 extension (HIGHRES_IMU ``id``): every instance reads as 0;
+        ``mav1_instance_repeats`` counts those whose time stamp repeated or stepped back on
+        the stream, the sign that several instances were merged into one
     """
 
     sysid: int
@@ -91,6 +129,14 @@ class LinkStats:
     duplicate_sysid_seen: bool = False
     heartbeat_conflicts: int = 0
     signature_failures: int = 0
+    unsigned_rejected: int = 0
+    wrong_key: int = 0
+    replayed: int = 0
+    signed_packets: int = 0
+    unsigned_accepted: int = 0
+    lost_wrapped: int = 0
+    mav1_no_instance: dict[str, int] = field(default_factory=dict)
+    mav1_instance_repeats: int = 0
     unknown_messages: int = 0
     bad_values: dict[str, int] = field(default_factory=dict)
     time_backwards: int = 0
@@ -116,6 +162,7 @@ class LinkStats:
     _dup_seq: set[int] = field(default_factory=set, repr=False)  # compids interleaving now
     _dup_hb: dict[int, int] = field(default_factory=dict, repr=False)  # compid: agreeing left
     _dup_clock_left: int = field(default=0, repr=False)  # packets until clock evidence expires
+    _mav1_last_t: dict[str, int] = field(default_factory=dict, repr=False)
 
     @property
     def duplicate_sysid(self) -> bool:
@@ -135,19 +182,25 @@ class LinkStats:
             self._dup_clock_left = 0
 
     def on_packet(self, compid: int, seq: int, name: str, buf: builtins.bytes,
-                  wall_s: float) -> bool:
-        """Account one decoded packet; False if it is an exact repeat of the previous one."""
+                  wall_s: float, clock_ms: int | None = None) -> bool:
+        """Account one decoded packet; False if it is an exact repeat of the previous one.
+
+        ``clock_ms``: the sender's clock in the packet (``time_boot_ms``), when it has one; it
+        bounds the loss of bursts longer than the sequence space (module docstring).
+        """
         st = self._seq.get(compid)
         if st is None:
-            self._seq[compid] = _SeqState(seq, buf)
+            st = self._seq[compid] = _SeqState(seq, buf)
         elif seq - st.last == 1 and st.back_ewma == 0.0:
             # fast path, the usual case: next in sequence, no backward step in memory (the EWMA
             # update below would leave back_ewma == 0.0 and high_run == 0 unchanged)
             st.last = seq
             st.last_buf = buf
+            st.n_int += 1
         else:
             gap = (seq - st.last) % SEQ_MOD
             back = 0.0
+            st.gap_int = True
             if gap == 0:
                 if buf == st.last_buf:
                     self.duplicates += 1
@@ -156,11 +209,15 @@ class LinkStats:
             elif gap > SEQ_HALF:
                 back = 1.0
                 self.reordered += 1
+                st.n_back += 1
                 if self.lost > 0:
                     self.lost -= 1  # it was counted lost when its successor arrived
+                    st.lost_int -= 1
             else:
                 self.lost += gap - 1
+                st.lost_int += gap - 1
                 st.last = seq
+            st.n_int += 1
             st.last_buf = buf
             st.back_ewma += (back - st.back_ewma) / DUP_EWMA_N
             if st.back_ewma > DUP_THRESHOLD:
@@ -175,6 +232,8 @@ class LinkStats:
                     st.low_run += 1
                     if st.low_run >= DUP_SUSTAIN:  # the other sender has stopped
                         self._dup_seq.discard(compid)
+        if clock_ms is not None:
+            self._clock_sample(st, seq, clock_ms)
         if self._dup_clock_left:
             self._dup_clock_left -= 1
         nbytes = len(buf)
@@ -195,6 +254,56 @@ class LinkStats:
         if wall_s - self._win_start_s >= RATE_WINDOW_S:
             self._close_rate_window(wall_s)
         return True
+
+    def _clock_sample(self, st: _SeqState, seq: int, clk: int) -> None:
+        """Close the stream's loss interval at a sample of the sender's clock (module
+        docstring): correct a modular count that a burst wrapped, measure the rate."""
+        if st.clk < 0 or clk < st.clk - CLOCK_REBOOT_MS:  # first clock sample, or a reboot
+            st.clk = st.win_clk = clk
+            st.win_sent = 0
+        elif clk > st.clk:
+            dc = clk - st.clk
+            if st.gap_int and st.rate > 0.0:
+                # lost in the interval: known mod 256 from the sequence numbers, about
+                # rate * dc - received from the clock; take the residue nearest the estimate
+                received = st.n_int
+                # residue in [-128, 128): -1 is a late packet of the previous interval
+                residue = (seq - st.s0 - received + SEQ_HALF) % SEQ_MOD - SEQ_HALF
+                estimate = st.rate * dc - received
+                wraps = max(0, round((estimate - residue) / SEQ_MOD))
+                lost = residue + SEQ_MOD * wraps
+                if abs(lost - st.lost_int) >= SEQ_HALF:
+                    self.lost = max(self.lost + lost - st.lost_int, 0)
+                    self.lost_wrapped += max(lost - st.lost_int, 0)
+                    if st.n_back:  # the "late" packets were the far side of the burst
+                        self.reordered -= st.n_back
+                        st.last = seq
+                    st.lost_int = lost
+            st.win_sent += st.n_int + st.lost_int
+            st.clk = clk
+            if clk - st.win_clk >= RATE_WINDOW_MS:
+                st.rate = st.win_sent / (clk - st.win_clk)
+                st.win_clk = clk
+                st.win_sent = 0
+        else:
+            return  # a clock stamp behind the newest one (older sample): not a boundary
+        st.s0 = seq
+        st.n_int = 0
+        st.lost_int = 0
+        st.n_back = 0
+        st.gap_int = False
+
+    def on_mav1_instance(self, name: str, t: int) -> None:
+        """A message whose instance id is a MAVLink 2 extension arrived in MAVLink 1 framing
+        (every instance reads as 0); ``t`` is its time stamp: a repeat or a step back means
+        several instances are interleaved in what reads as one."""
+        nm = self.mav1_no_instance
+        nm[name] = nm.get(name, 0) + 1
+        last = self._mav1_last_t.get(name)
+        if last is not None and t <= last and last - t < 10_000_000:
+            self.mav1_instance_repeats += 1
+        self._mav1_last_t[name] = max(t, last) if last is not None and last - t < 10_000_000 \
+            else t
 
     def _close_rate_window(self, wall_s: float) -> None:
         dt = wall_s - self._win_start_s
@@ -265,6 +374,11 @@ class LinkStats:
             "duplicate_sysid_seen": self.duplicate_sysid_seen,
             "heartbeat_conflicts": self.heartbeat_conflicts,
             "signature_failures": self.signature_failures,
+            "unsigned_rejected": self.unsigned_rejected, "wrong_key": self.wrong_key,
+            "replayed": self.replayed, "signed_packets": self.signed_packets,
+            "unsigned_accepted": self.unsigned_accepted, "lost_wrapped": self.lost_wrapped,
+            "mav1_no_instance": dict(self.mav1_no_instance),
+            "mav1_instance_repeats": self.mav1_instance_repeats,
             "unknown_messages": self.unknown_messages, "bad_values": dict(self.bad_values),
             "bad_values_total": sum(self.bad_values.values()),
             "time_backwards": self.time_backwards, "clock_conflicts": self.clock_conflicts,
@@ -284,12 +398,16 @@ class LinkCounters:
     chunks: int = 0
     parse_errors: int = 0  # CRC failures and undecodable bytes (pymavlink BAD_DATA)
     garbage_bytes: int = 0  # bytes between packets that are no MAVLink frame
-    bad_signature: int = 0
+    bad_signature: int = 0  # every packet rejected by signing (the three below together)
+    unsigned_rejected: int = 0  # no signature while signing is required
+    wrong_key: int = 0  # a signature that does not verify with our key (forged, other key)
+    replayed: int = 0  # a valid signature whose timestamp is not newer: a replay
     unknown_messages: int = 0  # valid framing, message id not in the dialect
     duplicates: int = 0  # exact repeats dropped by the decoder
     dropped_chunks: int = 0  # input queue overflow (bounded memory), copied from the source
     dropped_bytes: int = 0
     resync_bytes: int = 0  # tlog bytes skipped to find the next record
+    kernel_drops: int = 0  # datagrams the OS dropped because the socket buffer was full
 
     def as_dict(self) -> dict[str, int]:
         return {k: int(v) for k, v in self.__dict__.items()}

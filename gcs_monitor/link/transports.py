@@ -3,12 +3,16 @@
 Every source is an iterator of ``(bytes, wall_time_s)`` chunks. Live sources read on a thread
 into a bounded queue: when input arrives faster than it is processed the oldest chunks are
 dropped and counted (``dropped_chunks``), so memory stays bounded.
+
+UDP sources also count what the operating system dropped before the monitor could read it
+(``kernel_drops``: the socket's receive-queue overflow counter, ``SO_RXQ_OVFL``, on Linux; None
+where the platform has none), so a flood that overflows the socket buffer is reported, not
+silent.
 """
 
 from __future__ import annotations
 
 import collections
-import json
 import mmap
 import socket
 import struct
@@ -30,6 +34,9 @@ DEFAULT_MAX_QUEUE_BYTES = 16 << 20  # 16 MiB of unprocessed input at most
 DEFAULT_SERIAL_BAUD = 57_600
 GCS_SYSID = 255
 GCS_COMPID = 190
+SO_RXQ_OVFL = getattr(socket, "SO_RXQ_OVFL", 40)  # Linux: drop counter as ancillary data
+_U32 = struct.Struct("=I")
+DEFAULT_UDP_RCVBUF = 4 << 20
 
 
 class SourceError(ValueError):
@@ -79,6 +86,7 @@ class Source:
     dropped_chunks = 0
     dropped_bytes = 0
     resync_bytes = 0
+    kernel_drops: int | None = None
     total_bytes: int | None = None
     position = 0
 
@@ -142,11 +150,17 @@ class UdpSource(_ThreadedSource):
 
     def __init__(self, host: str, port: int, *, listen: bool,
                  max_chunks: int = DEFAULT_MAX_QUEUE_CHUNKS,
-                 idle_timeout_s: float | None = None) -> None:
+                 idle_timeout_s: float | None = None,
+                 rcvbuf_bytes: int = DEFAULT_UDP_RCVBUF) -> None:
         super().__init__(max_chunks, idle_timeout_s)
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4 << 20)
+        self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, rcvbuf_bytes)
+        try:  # the kernel then hands its drop counter to every recvmsg
+            self.sock.setsockopt(socket.SOL_SOCKET, SO_RXQ_OVFL, 1)
+            self.kernel_drops = 0
+        except OSError:
+            self.kernel_drops = None
         self._peer: tuple[str, int] | None = None
         try:
             if listen:
@@ -165,13 +179,18 @@ class UdpSource(_ThreadedSource):
                 self.sock.sendto(gcs_heartbeat(), self._peer)
             except OSError:
                 pass
+        anc = socket.CMSG_SPACE(_U32.size) if self.kernel_drops is not None else 0
         while not self._stop.is_set():
             try:
-                data, addr = self.sock.recvfrom(65535)
+                data, cmsgs, _, addr = self.sock.recvmsg(65535, anc)
             except TimeoutError:
                 continue
             except OSError:
                 return
+            for level, kind, value in cmsgs:
+                if level == socket.SOL_SOCKET and kind == SO_RXQ_OVFL and len(value) >= 4:
+                    # cumulative count of datagrams dropped on this socket
+                    self.kernel_drops = _U32.unpack_from(value)[0]
             if self._peer is None:
                 self._peer = addr
             self._queue.put((data, time.time()))
@@ -261,31 +280,40 @@ class SerialSource(_ThreadedSource):
 class ZenohSource(_ThreadedSource):
     """``zenoh:KEYEXPR[@ENDPOINT,...]``: raw MAVLink frames published on a key expression.
 
-    Peer mode, multicast scouting off, connecting to the given endpoints (default
-    ``tcp/127.0.0.1:7447``). The session is always closed (stack-notes sec. 3).
+    The session comes from :func:`gcs_monitor.link.zenoh_bus.open_bus` (peer mode, scouting
+    off, connecting to the given endpoints, default ``tcp/127.0.0.1:7447``; TLS and access
+    control from ``options``) and is always closed (stack-notes sec. 3).
     """
 
-    def __init__(self, keyexpr: str, endpoints: list[str], *,
+    def __init__(self, keyexpr: str, endpoints: list[str] | None = None, *,
                  max_chunks: int = DEFAULT_MAX_QUEUE_CHUNKS,
-                 idle_timeout_s: float | None = None) -> None:
+                 idle_timeout_s: float | None = None, options: Any = None) -> None:
         super().__init__(max_chunks, idle_timeout_s)
-        import zenoh
+        from dataclasses import replace
 
-        conf = zenoh.Config()
-        conf.insert_json5("mode", '"peer"')
-        conf.insert_json5("scouting/multicast/enabled", "false")
-        conf.insert_json5("scouting/gossip/enabled", "false")
-        conf.insert_json5("connect/endpoints", json.dumps(endpoints))
-        self._session = zenoh.open(conf)
-        try:  # a callback subscriber left open hangs the process at exit (stack-notes sec. 3)
-            self._sub = self._session.declare_subscriber(keyexpr, self._on_sample)
+        from gcs_monitor.link.zenoh_bus import (
+            DEFAULT_ENDPOINT,
+            RoleDefaults,
+            ZenohOptions,
+            open_bus,
+        )
+
+        opts = options if options is not None else ZenohOptions()
+        if endpoints:
+            opts = replace(opts, connect=tuple(endpoints))
+        elif opts.connect is None:
+            opts = replace(opts, connect=(DEFAULT_ENDPOINT,))
+        # a client: it reaches a publishing peer directly and a router's other clients
+        self._bus = open_bus(opts, what=f"zenoh:{keyexpr}", defaults=RoleDefaults(mode="client"))
+        try:
+            self._bus.subscribe(keyexpr, self._on_sample)
         except Exception as exc:
-            self._session.close()
+            self._bus.close()
             raise SourceError(f"zenoh:{keyexpr}: cannot subscribe: {exc}") from None
         self._closed = False
 
-    def _on_sample(self, sample: Any) -> None:
-        self._queue.put((bytes(sample.payload.to_bytes()), time.time()))
+    def _on_sample(self, key: str, payload: bytes) -> None:
+        self._queue.put((payload, time.time()))
 
     def _run(self) -> None:  # callbacks deliver; nothing to poll
         pass
@@ -295,10 +323,7 @@ class ZenohSource(_ThreadedSource):
         if self._closed:
             return
         self._closed = True
-        try:
-            self._sub.undeclare()
-        finally:
-            self._session.close()
+        self._bus.close()
 
 
 class TlogSource(Source):
@@ -408,7 +433,8 @@ def gcs_heartbeat() -> bytes:
 
 
 def open_source(url: str, *, speed: float | None = None, idle_timeout_s: float | None = None,
-                on_progress: Callable[[int, int], None] | None = None) -> Source:
+                on_progress: Callable[[int, int], None] | None = None,
+                zenoh_options: Any = None) -> Source:
     """Open a byte source from a URL; raise :class:`SourceError` with the expected forms."""
     forms = ("udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT, /dev/ttyX[:BAUD], FILE.tlog, "
              "zenoh:KEYEXPR[@ENDPOINT]")
@@ -417,16 +443,18 @@ def open_source(url: str, *, speed: float | None = None, idle_timeout_s: float |
         host, _, port_s = rest.rpartition(":")
         if not host or not port_s.isdigit():
             raise SourceError(f"{url!r}: expected {scheme}:HOST:PORT")
+        if not 0 < int(port_s) <= 65535:
+            raise SourceError(f"{url!r}: port {port_s} is outside 1..65535")
         if scheme == "tcp":
             return TcpSource(host, int(port_s), idle_timeout_s=idle_timeout_s)
         return UdpSource(host, int(port_s), listen=scheme != "udpout",
                          idle_timeout_s=idle_timeout_s)
     if url.startswith("zenoh:"):
         key, _, eps = url[len("zenoh:"):].partition("@")
-        endpoints = eps.split(",") if eps else ["tcp/127.0.0.1:7447"]
+        endpoints = eps.split(",") if eps else None
         if not key:
             raise SourceError(f"{url!r}: expected zenoh:KEYEXPR[@ENDPOINT]")
-        return ZenohSource(key, endpoints, idle_timeout_s=idle_timeout_s)
+        return ZenohSource(key, endpoints, idle_timeout_s=idle_timeout_s, options=zenoh_options)
     if url.startswith("/dev/"):
         dev, _, baud = url.partition(":")
         return SerialSource(dev, int(baud) if baud.isdigit() else DEFAULT_SERIAL_BAUD)

@@ -23,7 +23,12 @@ from __future__ import annotations
 
 import logging
 import math
+import shutil
+import socket
+import subprocess
+import sys
 import time
+import urllib.parse
 from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -199,6 +204,66 @@ def alarm_text(event: AlarmEvent) -> str:
     return f"{text}: {event.message}" if event.message else text
 
 
+class WebViewer:
+    """A Rerun web viewer and its gRPC proxy, served by the ``rerun`` program on ``bind``.
+
+    Rerun's in-process ``serve_web_viewer`` listens on every interface (0.0.0.0) and has no
+    option to change that, so the viewer runs as ``rerun --serve-web --bind <bind>``: on
+    127.0.0.1 by default, reachable from elsewhere only when ``bind`` says so. Recordings
+    stream to it through ``grpc_url`` (``RerunSink(connect_grpc=viewer.grpc_url)``); one viewer
+    shows every vehicle. A port already in use is a ValueError naming it.
+    """
+
+    def __init__(self, *, bind: str = "127.0.0.1", web_port: int = 9090,
+                 grpc_port: int = 9876, start_timeout_s: float = 30.0) -> None:
+        for port in (web_port, grpc_port):
+            if not 0 < port < 65536:
+                raise ValueError(f"web viewer: port {port} is outside 1..65535")
+            with socket.socket() as probe:
+                try:
+                    probe.bind((bind, port))
+                except OSError as exc:
+                    why = "already in use" if exc.errno == 98 else (exc.strerror or str(exc))
+                    raise ValueError(f"web viewer: cannot listen on {bind}:{port}: {why}"
+                                     ) from None
+        exe = shutil.which("rerun") or str(Path(sys.executable).with_name("rerun"))
+        self.bind = bind
+        host = "127.0.0.1" if bind in ("0.0.0.0", "::") else bind
+        self.proc = subprocess.Popen(
+            [exe, "--serve-web", "--bind", bind, "--web-viewer-port", str(web_port),
+             "--port", str(grpc_port)],
+            stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        self.grpc_url = f"rerun+http://{host}:{grpc_port}/proxy"
+        self.viewer_url = (f"http://{host}:{web_port}/?url="
+                           f"{urllib.parse.quote(self.grpc_url, safe='')}")
+        t_end = time.monotonic() + start_timeout_s
+        while time.monotonic() < t_end:
+            if self.proc.poll() is not None:
+                err = (self.proc.stderr.read() if self.proc.stderr else b"").decode(
+                    errors="replace").strip().splitlines()
+                raise ValueError(f"web viewer: rerun exited: {err[-1] if err else '?'}")
+            try:
+                with socket.create_connection((host, grpc_port), timeout=0.2), \
+                        socket.create_connection((host, web_port), timeout=0.2):
+                    break
+            except OSError:
+                time.sleep(0.1)
+        else:
+            self.close()
+            raise ValueError(f"web viewer: rerun did not listen within {start_timeout_s:g} s")
+        log.info("rerun web viewer: %s", self.viewer_url)
+
+    def close(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                self.proc.wait(timeout=5.0)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+        if self.proc.stderr is not None:
+            self.proc.stderr.close()
+
+
 class RerunSink:
     """Rerun output for one vehicle (Sink protocol).
 
@@ -206,8 +271,10 @@ class RerunSink:
     ----------
     vehicle : MAVLink system id
     rrd_path : write the recording (with the default blueprint embedded) to this .rrd file
-    web : serve live: a gRPC server on ``127.0.0.1:grpc_port`` and the web viewer on
-        ``127.0.0.1:web_port`` (no browser is opened; the URL is logged and in ``viewer_url``)
+    web : serve live: a :class:`WebViewer` of this sink alone (gRPC on ``127.0.0.1:grpc_port``,
+        the web viewer on ``127.0.0.1:web_port``; no browser is opened; the URL is logged and in
+        ``viewer_url``). Several vehicles share one: start a WebViewer and pass its
+        ``grpc_url`` as ``connect_grpc``
     grpc_port, web_port : ports for ``web`` (Rerun defaults 9876 / 9090 when None)
     connect_grpc : stream to an already running viewer (``rerun+http://host:port/proxy``).
         Pitfall: a URL nobody listens on makes close() block 5-10 s (stack-notes section 2).
@@ -251,19 +318,17 @@ class RerunSink:
         if self.rrd_path is not None:
             self.rrd_path.parent.mkdir(parents=True, exist_ok=True)
             sinks.append(rr.FileSink(str(self.rrd_path)))
-        server: Any = None
+        self._viewer: WebViewer | None = None
         if web:
-            server = rr.GrpcServerSink("127.0.0.1", grpc_port if grpc_port is not None else 9876)
-            sinks.append(server)
+            self._viewer = WebViewer(web_port=web_port if web_port is not None else 9090,
+                                     grpc_port=grpc_port if grpc_port is not None else 9876)
+            self.grpc_url = self._viewer.grpc_url
+            self.viewer_url = self._viewer.viewer_url
+            sinks.append(rr.GrpcSink(self.grpc_url))
+            log.info("rerun web viewer for vehicle %d: %s", self.vehicle, self.viewer_url)
         if connect_grpc is not None:
             sinks.append(rr.GrpcSink(connect_grpc))
         self.rec.set_sinks(*sinks, default_blueprint=blueprint)
-        if server is not None:
-            self.grpc_url = server.uri
-            rr.serve_web_viewer(web_port=web_port, open_browser=False, connect_to=self.grpc_url)
-            port = web_port if web_port is not None else 9090
-            self.viewer_url = f"http://127.0.0.1:{port}/?url={self.grpc_url}"
-            log.info("rerun web viewer for vehicle %d: %s", self.vehicle, self.viewer_url)
 
         self._paths: dict[tuple[str | int, ...], str] = {}
         self._buf = _ColumnBuffer()
@@ -385,6 +450,8 @@ class RerunSink:
         self._closed = True
         self.rec.flush(timeout_sec=5.0)
         self.rec.disconnect()
+        if self._viewer is not None:
+            self._viewer.close()
 
     def __enter__(self) -> RerunSink:
         return self

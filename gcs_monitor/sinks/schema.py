@@ -10,6 +10,11 @@ meaning changed); adding a key alone is compatible and keeps the version.
 Version 2: an alarm's ``fault_type`` is the type decided at the raise and held by hysteresis
 (:class:`gcs_monitor.fdi.classify.LabelHysteresis`), no longer the latest window's guess, and
 ``confidence`` says how sure it is. Version 1 payloads are still read (``confidence`` NaN).
+Added since (compatible): ``alarm_id`` and ``monitor`` on alarms; the health payload carries one
+vehicle's health (:meth:`gcs_monitor.monitor.Monitor.vehicle_health`).
+
+The keys, types and meanings of every payload are declared in
+:mod:`gcs_monitor.sinks.payload_spec`, which validates payloads and writes docs/alarms.md.
 """
 
 from __future__ import annotations
@@ -73,6 +78,20 @@ def channel_from_dict(d: Mapping[str, Any]) -> ChannelId:
     return ChannelId(kind=str(d["kind"]), instance=int(d["instance"]), axis=str(d.get("axis", "")))
 
 
+def alarm_id(vehicle: int, channel: ChannelId, raised_t_us: int) -> str:
+    """The stable id of an alarm: ``<vehicle>/<channel>/<raise time, µs of vehicle time>``,
+    e.g. ``1/aoa1/20150000``. Every transition of the alarm (raise, updates, clear) carries it;
+    a monitor that takes over or restarts keeps the ids of the alarms it inherits, and the same
+    bytes give the same ids."""
+    return f"{int(vehicle)}/{channel}/{int(raised_t_us)}"
+
+
+def raised_t_us_of(alarm_id_: str) -> int | None:
+    """The raise time in an alarm id (None if it has another form)."""
+    tail = alarm_id_.rpartition("/")[2]
+    return int(tail) if tail.lstrip("-").isdigit() else None
+
+
 def wall_time_iso(wall_time_s: float) -> str | None:
     """UTC ISO-8601 with milliseconds, e.g. ``2025-01-31T12:00:00.123Z``; None if not finite."""
     if not math.isfinite(wall_time_s):
@@ -81,17 +100,23 @@ def wall_time_iso(wall_time_s: float) -> str | None:
     return dt.isoformat(timespec="milliseconds").replace("+00:00", "Z")
 
 
-def alarm_to_dict(event: AlarmEvent, *, wall_time_s: float) -> dict[str, Any]:
+def alarm_to_dict(event: AlarmEvent, *, wall_time_s: float,
+                  monitor: str = "") -> dict[str, Any]:
     """The alarm payload: one per AlarmEvent transition (raised / updated / cleared).
 
     Parameters
     ----------
     event : the transition
     wall_time_s : POSIX wall time (s) at which the sink handled the event
+    monitor : the name of the monitor that published it (a fleet worker's id; ``""``)
     """
+    aid = event.alarm_id or (alarm_id(event.vehicle, event.channel, event.t_us)
+                             if event.state is AlarmState.RAISED else None)
     return {
         "schema_version": SCHEMA_VERSION,
         "type": "alarm",
+        "alarm_id": aid,
+        "monitor": monitor,
         "vehicle": int(event.vehicle),
         "channel": channel_to_dict(event.channel),
         "channel_name": str(event.channel),
@@ -134,6 +159,7 @@ def alarm_from_dict(d: Mapping[str, Any]) -> AlarmEvent:
         message=str(d.get("message", "")),
         vehicle=int(d["vehicle"]),
         confidence=_unnum(d.get("confidence")),  # absent before schema version 2
+        alarm_id=str(d.get("alarm_id") or ""),
     )
 
 

@@ -69,10 +69,11 @@ def test_confidence_is_reported_in_range(demo):
 def test_summary_shows_first_raise_and_final_state(demo):
     events, faults = demo
     lines = summarise_alarms(events)
-    assert [line.split()[0] for line in lines] == ["aoa1", "cas0", "cas2"]
+    assert [line.split()[:2] for line in lines] == [["v1", "aoa1"], ["v1", "cas0"],
+                                                      ["v1", "cas2"]]
     for line in lines:
         first, final = line.split(" | ")
-        name = first.split()[0]
+        name = first.split()[1]
         assert "first raise t=" in first and INJECTED[name].value in first
         assert final.startswith("final (t=") and "active" in final
         assert INJECTED[name].value in final

@@ -127,6 +127,8 @@ class ImuFamily:
         # no-data check of every IMU instance: last sample time, alarm
         self._no_data_us = round(cfg.no_data_window_s * US_PER_S)
         self._last_sample: dict[int, int] = {}
+        self._last_frame_us: int | None = None
+        self._outage_us: dict[int, int] = {}  # vehicle-wide silence inside an IMU's silence
         self._instance_period: dict[int, SamplePeriod] = {}
         self._silent: dict[int, AlarmStateMachine] = {}
 
@@ -260,9 +262,18 @@ class ImuFamily:
         t = frame.t_us
         seen = self._last_sample
         periods = self._instance_period
+        outage = self._outage_us
+        last, self._last_frame_us = self._last_frame_us, t
+        if last is not None and t - last > self._no_data_us:
+            # the whole vehicle was silent (a link outage, LINK/stale's business): that gap is
+            # no evidence against one IMU; the first frame after it may come before the other
+            # instances' samples of the same instant
+            for i in seen:
+                outage[i] = outage.get(i, 0) + t - last
         for i, smp in enumerate(frame.imu):
             if smp is not None and seen.get(i) != smp.t_us:
                 seen[i] = smp.t_us
+                outage[i] = 0
                 per = periods.get(i)
                 if per is None:
                     per = periods[i] = SamplePeriod()
@@ -273,7 +284,8 @@ class ImuFamily:
         # stream is not a silent sensor)
         window = self._no_data_us
         silent = {i for i, ts in seen.items()
-                  if t - ts > window and t - ts > NO_DATA_PERIODS * periods[i].seconds() * 1e6}
+                  if (quiet := t - ts - outage.get(i, 0)) > window
+                  and quiet > NO_DATA_PERIODS * periods[i].seconds() * 1e6}
         events: list[AlarmEvent] = []
         for i in sorted(seen):
             sm = self._silent.get(i)

@@ -6,6 +6,7 @@ import hashlib
 import json
 
 from gcs_monitor.link.decode import Decoder
+from gcs_monitor.link.signing import signing_now
 from gcs_monitor.link.stats import DUP_HEARTBEATS_CLEAR, DUP_SUSTAIN, LinkStats
 from tests.helpers.mavgen import MavGen
 
@@ -85,7 +86,7 @@ def test_signature_failures_are_counted_per_sender():
     good = MavGen(sysid=7)
     good.mav.signing.secret_key = key
     good.mav.signing.sign_outgoing = True
-    good.mav.signing.timestamp = 1
+    good.mav.signing.timestamp = signing_now()  # a real sender signs with its clock
     bad = MavGen(sysid=8)  # unsigned
     data = b"".join(good.heartbeat() for _ in range(5)) + b"".join(
         bad.heartbeat() for _ in range(4))

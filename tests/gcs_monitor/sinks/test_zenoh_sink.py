@@ -147,20 +147,36 @@ def test_unreachable_connect_does_not_block_or_crash() -> None:
     assert sink.n_errors == 0
 
 
-def test_bad_listen_endpoint_counts_error() -> None:
-    # 10.255.255.1 is not a local address: binding fails at once (os error 99).
-    sink = ZenohSink(8, listen=["tcp/10.255.255.1:7447"])
-    assert not sink.active and sink.n_errors == 1
-    sink.publish(Frame(t_us=0, imu=[]), StepOutput(events=[_alarm(0, 8)]))
-    assert sink.n_dropped == 1
-    sink.close()
+def test_bad_listen_endpoint_is_a_clear_error() -> None:
+    # 10.255.255.1 is not a local address: binding fails at once (os error 99). The sink does
+    # not run on silently without its outputs (issue 19): one line says what failed.
+    from gcs_monitor.link.zenoh_bus import ZenohError
+
+    with pytest.raises(ZenohError, match=r"cannot listen on tcp/10\.255\.255\.1:7447: cannot "
+                                         r"assign requested address"):
+        ZenohSink(8, listen=["tcp/10.255.255.1:7447"])
+
+
+def test_port_in_use_is_a_clear_error() -> None:
+    from gcs_monitor.link.zenoh_bus import ZenohError
+
+    with socket.socket() as holder:
+        holder.bind(("127.0.0.1", 0))
+        holder.listen()
+        port = holder.getsockname()[1]
+        with pytest.raises(ZenohError, match=f"cannot listen on tcp/127.0.0.1:{port}: address "
+                                             "already in use"):
+            ZenohSink(8, listen=[f"tcp/127.0.0.1:{port}"])
 
 
 def test_subscriber_closes_without_hang() -> None:
     # A process with a callback subscriber that is closed exits promptly (stack-notes pitfall).
     code = textwrap.dedent(f"""
+        from gcs_monitor.link.zenoh_bus import ZenohOptions
         from gcs_monitor.sinks.zenoh_sink import subscribe_alarms
-        sub = subscribe_alarms("gcs/*/alarm", connect=["tcp/127.0.0.1:{_free_port()}"])
+        # a peer keeps retrying an endpoint nobody listens on (a client would fail at once)
+        sub = subscribe_alarms("gcs/*/alarm", connect=["tcp/127.0.0.1:{_free_port()}"],
+                               options=ZenohOptions(mode="peer"))
         sub.close()
     """)
     r = subprocess.run([sys.executable, "-c", code], timeout=60)  # liveness: a hang never ends
