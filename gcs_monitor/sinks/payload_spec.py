@@ -182,6 +182,9 @@ LINK_STATS = Obj((
     F("time_rejected", "int", "time stamps no vehicle clock can carry (dropped)"),
     F("time_jumps", "int", "confirmed forward jumps of the vehicle clock"),
     F("duplicates_dropped", "int", "same-timestamp samples dropped by the assembler"),
+    F("imu_held", "int", "IMU samples that repeat their instance's previous six values "
+                         "exactly (a held value, not a measurement: the earlier sample and "
+                         "its time are kept)"),
     F("reboots", "int", "autopilot reboots (vehicle clock restarted)"),
     F("boot_count", "int", "the same"),
     F("primary_imu_switches", "int", "changes of the primary IMU"),
@@ -225,6 +228,13 @@ INPUTS = Obj((
     F("baro", "bool", "VFR_HUD seen"),
     F("static_pressure", "bool", "SCALED_PRESSURE seen"),
     F("surfaces", "bool", "surface feedback (DEBUG_FLOAT_ARRAY SURF) seen"),
+    F("body_rates", "bool", "body rates seen (ATTITUDE rollspeed, pitchspeed, yawspeed)"),
+    F("servo_outputs", "bool", "SERVO_OUTPUT_RAW seen"),
+    F("nav_setpoints", "bool", "NAV_CONTROLLER_OUTPUT seen (commanded bank, pitch, heading)"),
+    F("attitude_target", "bool", "ATTITUDE_TARGET seen"),
+    F("throttle", "bool", "a throttle value seen (VFR_HUD.throttle)"),
+    F("commands", "bool", "control commands seen (servo outputs or setpoints): what the "
+                          "actuator family's aircraft level needs"),
     F("frames", "int", "Frames assembled"),
 ))
 

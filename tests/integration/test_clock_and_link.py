@@ -62,7 +62,7 @@ def test_a_single_2_63_time_stamp(base_packets):
     assert lk["time_rejected"] == 1 and lk["bad_values"] == {"HIGHRES_IMU.time_usec": 1}
     assert lk["reboots"] == 0 and lk["time_jumps"] == 0
     assert lk["last_vehicle_t_us"] <= base_packets[-1][0]
-    assert r.builds == [["imu", "airdata", "yaw_rate"]]
+    assert r.builds == [["imu", "airdata", "yaw_rate", "actuators"]]
 
 
 def test_the_clock_stepping_back(flight):
@@ -75,7 +75,7 @@ def test_the_clock_stepping_back(flight):
     assert [e.t_us for e in r.events] == [100_000, 5_100_000]
     lk = r.health["vehicles"]["1"]["link"]
     assert lk["reboots"] == 1 and lk["time_rejected"] == 0 and lk["time_jumps"] == 0
-    assert r.builds == [["imu", "airdata", "yaw_rate"], ["imu", "airdata", "yaw_rate"]]
+    assert r.builds == [["imu", "airdata", "yaw_rate", "actuators"], ["imu", "airdata", "yaw_rate", "actuators"]]
 
 
 def test_the_clock_stepping_forward(flight):
@@ -86,22 +86,24 @@ def test_the_clock_stepping_forward(flight):
     reports ``monitor_degraded`` from the first frame after the step until it has judged 90 %
     of a 10 s window again; so does the yaw-rate family, which cannot judge the first frames
     after the step (the untimed AIRSPEED of the new time line arrives after them) and whose
-    observer re-anchors at the first sample with all its inputs; the air-data sets judge from
-    the first sample. Nothing else."""
+    observer re-anchors at the first sample with all its inputs; so does the actuator family (60 s
+    without commands are 60 s not judged); the air-data sets judge from the first sample. Nothing else."""
     jump_us = 60_000_000
     r = run_monitor(join(_clock_step(flight, jump_us)))
     assert sorted(_events(r.events)) == sorted(
         [("raised", "monitor0.imu", "monitor_degraded"),
          ("cleared", "monitor0.imu", "monitor_degraded"),
          ("raised", "monitor0.yaw_rate", "monitor_degraded"),
-         ("cleared", "monitor0.yaw_rate", "monitor_degraded")])
-    for fam in ("imu", "yaw_rate"):
+         ("cleared", "monitor0.yaw_rate", "monitor_degraded"),
+         ("raised", "monitor0.actuators", "monitor_degraded"),
+         ("cleared", "monitor0.actuators", "monitor_degraded")])
+    for fam in ("imu", "yaw_rate", "actuators"):
         raised, cleared = (e.t_us for e in r.events if e.channel.axis == fam)
         assert raised == STEP_AT_US + jump_us
         assert 9_000_000 <= cleared - raised <= 12_000_000
     lk = r.health["vehicles"]["1"]["link"]
     assert lk["time_jumps"] == 1 and lk["time_rejected"] == 0 and lk["reboots"] == 0
-    assert r.builds == [["imu", "airdata", "yaw_rate"]]
+    assert r.builds == [["imu", "airdata", "yaw_rate", "actuators"]]
 
 
 def test_a_lone_forward_outlier(base_packets):

@@ -65,10 +65,14 @@ def test_real_payloads_match_the_documented_schema(tmp_path: Path) -> None:
     want = json.loads(json.dumps(to_jsonable(expected)))
     assert [s["sink"] for s in health.pop("sinks")] == [s["sink"] for s in want.pop("sinks")]
     assert health == want
-    assert set(health["families"]) == {"imu", "airdata"}
-    for fam in health["families"].values():
+    assert set(health["families"]) == {"imu", "airdata", "yaw_rate", "actuators"}
+    for name in ("imu", "airdata"):
+        fam = health["families"][name]
         assert fam["state"] == "judging"
         assert 0.0 < fam["coverage_overall"] <= 1.0 and 0.0 <= fam["coverage_recent"] <= 1.0
+    for fam in health["families"].values():  # a family that does not judge says why
+        assert fam["state"] in ("judging", "degraded", "starting", "unavailable", "disabled")
+        assert (fam["state"] == "judging") == (fam["reason"] == ""), fam
     assert [a["channel"] for a in health["alarms"]] == ["aoa1"]
     assert health["alarms"][0]["alarm_id"] == next(d["alarm_id"] for d in lines
                                                   if d["channel_name"] == "aoa1")
