@@ -270,7 +270,7 @@ def render(data: ReportData) -> str:
     else:
         parts.append("<p>No alarms.</p>")
     # one figure per alarm
-    figs = []
+    figs: list[str] = []
     seen: set[tuple[str, int, str]] = set()
     for e in data.events:
         key = (e.channel.kind, e.channel.instance, e.channel.axis)

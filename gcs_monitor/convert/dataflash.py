@@ -79,7 +79,7 @@ _PA_EXP = -ISA_R_JPKGK * ISA_LAPSE_KPM / GRAVITY_STD_MPS2
 
 def pressure_altitude_m(p_pa: float) -> float:
     """ISA pressure altitude (troposphere) of a static pressure."""
-    return ISA_T0_K / -ISA_LAPSE_KPM * (1.0 - (p_pa / ISA_P0_PA) ** _PA_EXP)
+    return ISA_T0_K / -ISA_LAPSE_KPM * (1.0 - math.pow(p_pa / ISA_P0_PA, _PA_EXP))
 
 
 def vehicle_type(text: str) -> tuple[int, str]:

@@ -76,27 +76,35 @@ def _f(d: dict[str, np.ndarray], *names: str) -> np.ndarray | None:
     return None
 
 
+def _all(cols: list[np.ndarray | None]) -> list[np.ndarray] | None:
+    """All the columns, or None when one of them is missing."""
+    present = [c for c in cols if c is not None]
+    return present if len(present) == len(cols) else None
+
+
 def _vec(d: dict[str, np.ndarray], base: str) -> np.ndarray | None:
-    cols = [_f(d, f"{base}[{i}]") for i in range(3)]
-    if any(c is None for c in cols):
+    cols = _all([_f(d, f"{base}[{i}]") for i in range(3)])
+    if cols is None:
         return None
-    return np.column_stack(cols)  # type: ignore[arg-type]
+    return np.column_stack(cols)
 
 
 def _mav_type(status: dict[str, np.ndarray] | None) -> int:
+    generic = int(mavlink.MAV_TYPE_GENERIC)
+    quad, plane = int(mavlink.MAV_TYPE_QUADROTOR), int(mavlink.MAV_TYPE_FIXED_WING)
     if status is None:
-        return mavlink.MAV_TYPE_GENERIC
+        return generic
     st = _f(status, "system_type")
     if st is not None and len(st) and st[-1] > 0:
         return int(st[-1])
     vt = _f(status, "vehicle_type")  # 1 rotary wing, 2 fixed wing, 3 rover
     if vt is not None and len(vt):
-        return {1: mavlink.MAV_TYPE_QUADROTOR, 2: mavlink.MAV_TYPE_FIXED_WING,
-                3: mavlink.MAV_TYPE_GROUND_ROVER}.get(int(vt[-1]), mavlink.MAV_TYPE_GENERIC)
+        return {1: quad, 2: plane, 3: int(mavlink.MAV_TYPE_GROUND_ROVER)}.get(int(vt[-1]),
+                                                                              generic)
     rw = _f(status, "is_rotary_wing")
     if rw is not None and len(rw):
-        return mavlink.MAV_TYPE_QUADROTOR if rw[-1] else mavlink.MAV_TYPE_FIXED_WING
-    return mavlink.MAV_TYPE_GENERIC
+        return quad if rw[-1] else plane
+    return generic
 
 
 def ulog_messages(path: Path, *, imu_rate_hz: float = DEFAULT_IMU_RATE_HZ,
@@ -312,18 +320,18 @@ def _add_gps(streams: list[tuple[np.ndarray, Emit]], state: dict[str, Any],
     if alt is None:
         a = _f(d, "alt")
         alt = None if a is None else a * 1e-3
-    vel = [_f(d, n) for n in ("vel_n_m_s", "vel_e_m_s", "vel_d_m_s")]
+    vel = _all([_f(d, n) for n in ("vel_n_m_s", "vel_e_m_s", "vel_d_m_s")])
     fix = _f(d, "fix_type")
     sats = _f(d, "satellites_used")
-    if lat is None or lon is None or alt is None or any(v is None for v in vel):
+    if lat is None or lon is None or alt is None or vel is None:
         return None
-    cols = [lat * DEG2RAD, lon * DEG2RAD, alt, *vel,  # type: ignore[list-item]
+    cols = [lat * DEG2RAD, lon * DEG2RAD, alt, *vel,
             fix if fix is not None else np.full(len(lat), 3.0),
             sats if sats is not None else np.full(len(lat), 255.0)]
     ok = np.all(np.isfinite(np.column_stack(cols)), axis=1)
     rows = np.column_stack(cols)[ok].tolist()
     t = np.asarray(d["timestamp"], dtype=np.int64)[ok]
-    lag = _gnss_lag(state, t, np.column_stack(vel)[ok], np.asarray(cols[6])[ok])  # type: ignore[arg-type]
+    lag = _gnss_lag(state, t, np.column_stack(vel)[ok], np.asarray(cols[6])[ok])
     if lag is not None and lag.determined:
         t = t - int(round(lag.lag_s * 1e6))
 

@@ -12,6 +12,7 @@ import shutil
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TypedDict
 
 import numpy as np
 
@@ -100,6 +101,11 @@ def truth_path_of(tlog: Path) -> Path:
     return Path(tlog).with_suffix(".truth.npz")
 
 
+# the status arrays' names hold a dot (no Python keyword): a typed mapping for np.savez
+_StatusArrays = TypedDict("_StatusArrays", {"failure_status.t_s": Vec,
+                                            "failure_status.value": Vec})
+
+
 def write_failure_truth(flight: Flight, tlog: Path) -> Path:
     """A real failure's ground truth beside the tlog (never on the link), in the simulator's
     truth layout: ``fault_events_json`` (JSON list: the failed component as an ``actuator.<name>``
@@ -110,12 +116,14 @@ def write_failure_truth(flight: Flight, tlog: Path) -> Path:
     events = [] if not tr.component or not math.isfinite(tr.t_failure_s) else [
         {"type": "actuator", "channel": f"actuator.{tr.component}", "kind": tr.kind,
          "t_start_s": tr.t_failure_s, "t_end_s": None, "params": {"source": flight.name}}]
+    status: _StatusArrays = {"failure_status.t_s": tr.status_t_s,
+                             "failure_status.value": tr.status}
     path = truth_path_of(tlog)
     tmp = path.with_name(path.name + ".part")
     with open(tmp, "wb") as fh:
         np.savez(fh, fault_events_json=np.array(json.dumps(events)),
                  failure_kind=np.array(tr.kind), failure_component=np.array(tr.component),
-                 **{"failure_status.t_s": tr.status_t_s, "failure_status.value": tr.status})
+                 **status)
     tmp.replace(path)
     return path
 

@@ -86,13 +86,13 @@ def param(default: T, doc: str, *, unit: str | None = None, key: str | None = No
     """
     md = {"doc": doc, "unit": unit, "key": key, "choices": choices, "positive": positive,
           "toml": toml}
-    return dataclasses.field(default=default, metadata=md)  # type: ignore[no-any-return]
+    return dataclasses.field(default=default, metadata=md)
 
 
 def section(factory: Callable[[], T], doc: str, *, unit: DisplayUnit | None = None) -> T:
     """A documented nested table (a dataclass field built by ``factory``); ``unit`` is the
     display unit of the ``{u}`` keys inside it."""
-    return dataclasses.field(  # type: ignore[no-any-return]
+    return dataclasses.field(
         default_factory=factory, metadata={"doc": doc, "set_unit": unit, "toml": True})
 
 

@@ -127,7 +127,7 @@ def open_log(path: Path | str, fmt: str | None = None, *, speed: float | None = 
     if fmt == "tlog":
         if path.stat().st_size == 0:
             raise log_error(path, "empty file (0 bytes)")
-        src = TlogSource(path, speed=speed, on_progress=on_progress)
+        src: Source = TlogSource(path, speed=speed, on_progress=on_progress)
         return OpenedLog(src, LogInfo(path=path, fmt="tlog", warnings=[note] if note else []))
     messages, info = read_messages(path, fmt, column_map=column_map, imu_rate_hz=imu_rate_hz)
     if note:

@@ -103,9 +103,9 @@ class RateRequester:
                         "MAV_RESULT_")
                     break
             return
-        r = self.results.get(typ)
-        if r is not None and self.t_request is not None and not self.done:
-            r.count += 1
+        res = self.results.get(typ)
+        if res is not None and self.t_request is not None and not self.done:
+            res.count += 1
 
     def poll(self, now_s: float) -> list[RateResult] | None:
         """Send what is due; return the results once measured (once)."""

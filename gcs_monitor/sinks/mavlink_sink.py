@@ -41,7 +41,7 @@ log = logging.getLogger(__name__)
 COMPID_DEFAULT = mavlink.MAV_COMP_ID_ONBOARD_COMPUTER  # 191
 STATUSTEXT_LEN = 50
 PREFIX = "FDI"
-SEVERITY = {
+SEVERITY: dict[AlarmKind, int] = {
     AlarmKind.ACTUATOR_FAULT: mavlink.MAV_SEVERITY_ALERT,
     AlarmKind.SET_LOST: mavlink.MAV_SEVERITY_CRITICAL,
     AlarmKind.SENSOR_FAULT: mavlink.MAV_SEVERITY_WARNING,
@@ -49,7 +49,8 @@ SEVERITY = {
     AlarmKind.MONITOR_DEGRADED: mavlink.MAV_SEVERITY_NOTICE,
     AlarmKind.ESTIMATOR: mavlink.MAV_SEVERITY_NOTICE,
 }
-CLEARED_SEVERITY = mavlink.MAV_SEVERITY_INFO
+CLEARED_SEVERITY: int = mavlink.MAV_SEVERITY_INFO
+DEFAULT_SEVERITY: int = mavlink.MAV_SEVERITY_WARNING
 DEFAULT_QUEUE = 1000
 
 
@@ -57,7 +58,7 @@ def severity(ev: AlarmEvent) -> int:
     """MAV_SEVERITY of an alarm transition (module docstring)."""
     if ev.state == AlarmState.CLEARED:
         return CLEARED_SEVERITY
-    return SEVERITY.get(ev.kind, mavlink.MAV_SEVERITY_WARNING)
+    return SEVERITY.get(ev.kind, DEFAULT_SEVERITY)
 
 
 def channel_name(ev: AlarmEvent) -> str:
@@ -187,24 +188,27 @@ class MavlinkAlarmSink:
                     return
                 batch = list(self._q)
                 self._q.clear()
-            if self._sock is None:
-                self._sock = self._connect()
-                if self._sock is None:
+            sock = self._sock
+            if sock is None:
+                sock = self._sock = self._connect()
+                if sock is None:
                     self.n_dropped += len(batch)
                     continue
-            for packet in batch:
+            for i, packet in enumerate(batch):
                 try:
                     if self._tcp:
-                        self._sock.sendall(packet)
+                        sock.sendall(packet)
                     else:
-                        self._sock.sendto(packet, self._addr)
+                        sock.sendto(packet, self._addr)
                     self.n_published += 1
                 except OSError:
                     self.n_errors += 1
                     self.n_dropped += 1
-                    if self._tcp:
-                        self._sock.close()
+                    if self._tcp:  # the connection is gone: drop the rest of the batch,
+                        sock.close()  # reconnect for the next one
                         self._sock = None
+                        self.n_dropped += len(batch) - i - 1
+                        break
 
     def close(self) -> None:
         with self._cv:

@@ -416,7 +416,7 @@ class AircraftTier:
                 stepped.append(step)
         if not self._seen_inputs and any(ax.mode for ax in self.axes):
             self._seen_inputs = True
-        statuses = [] if self.ctx.statuses else None
+        statuses: list[ChannelStatus] | None = [] if self.ctx.statuses else None
         events = self._decide(t, stepped, statuses)
         freeze = any(ax.suspected(self.cfg.model.freeze_ratio) for ax in self.axes)
         for ax, y, phi, sq in stepped:

@@ -84,7 +84,7 @@ def wind_ned(vel_ned_mps: np.ndarray, euler_rad: np.ndarray, cas_mps: float, aoa
     tas = tas_from_cas(cas_mps, alt_m)
     ca, sa = math.cos(aoa_rad), math.sin(aoa_rad)
     cb, sb = math.cos(ssa_rad), math.sin(ssa_rad)
-    v_air_frd = np.array([tas * ca * cb, tas * sb, tas * sa * cb])
+    v_air_frd = np.array([tas * ca * cb, tas * sb, tas * sa * cb], dtype=np.float64)
     C = dcm_ned_frd(float(euler_rad[0]), float(euler_rad[1]), float(euler_rad[2]))
     return np.asarray(vel_ned_mps, dtype=np.float64) - C @ v_air_frd
 
@@ -180,8 +180,9 @@ class WeatherEstimator:
         self._shear_rate(t_us)
         env = self._envelope()
         m = self._last_mean
-        mean = (float(m[0]), float(m[1]), float(m[2])) if m is not None else (math.nan,) * 3
-        self.estimate = WeatherEstimate(self._usable_us >= self._converge_us, mean,
+        mean_ned = (float(m[0]), float(m[1]), float(m[2])) if m is not None \
+            else (math.nan,) * 3
+        self.estimate = WeatherEstimate(self._usable_us >= self._converge_us, mean_ned,
                                         self._sigma, env)
         return env
 

@@ -374,9 +374,11 @@ class ImuFamily:
         period_s = self._period.seconds()
         if not math.isfinite(period_s):
             raise RuntimeError("IMU judged before its sample period was measured")
-        kw = {"alarm": self.ctx.alarm, "classifier": self.ctx.classifier}
-        params = {"acc": channel_params(j.sets.acc, period_s, **kw),
-                  "gyro": channel_params(j.sets.gyro, period_s, **kw)}
+        alarm, classifier = self.ctx.alarm, self.ctx.classifier
+        params = {"acc": channel_params(j.sets.acc, period_s, alarm=alarm,
+                                        classifier=classifier),
+                  "gyro": channel_params(j.sets.gyro, period_s, alarm=alarm,
+                                         classifier=classifier)}
         j.monitors = [ChannelMonitor(ch, params["acc" if ch.kind == "acc" else "gyro"],
                                      estimator=estimator, vehicle=self.ctx.vehicle)
                       for ch in j.channels]

@@ -208,7 +208,7 @@ class ImuTwoStageEstimator:
         self._period = SamplePeriod()  # of its usable samples: gap limit, re-anchoring
         self._instance: int | None = None  # the IMU instance monitored
         self._restart_why = ""
-        self._channels = FAULT_CHANNELS
+        self._channels: tuple[ChannelId, ...] = FAULT_CHANNELS
         self._t_start_us = 0  # time of the last full (re)start
         # Compiled hot path (GS-KM, numba): the model kernels write F, G and the propagated
         # x_bar into these work arrays and PackedTwoStage runs the filter step in one call; the

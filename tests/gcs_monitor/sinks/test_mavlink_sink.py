@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import socket
 import time
+from collections.abc import Callable
 
 import numpy as np
+import pytest
 
 from gcs_monitor.core.types import ChannelId
 from gcs_monitor.fdi.events import AlarmEvent, AlarmKind, AlarmState, FaultType
@@ -88,6 +90,47 @@ def test_sink_never_blocks_and_counts_drops() -> None:
     assert time.monotonic() - t0 < 0.5  # s: formatting only, the sender thread does the I/O
     sink.close()
     assert sink.n_dropped > 0
+
+
+class _FakeTcp:
+    """A TCP connection whose sends fail (``broken``) or are kept."""
+
+    def __init__(self, broken: bool) -> None:
+        self.broken = broken
+        self.sent: list[bytes] = []
+        self.closed = False
+
+    def sendall(self, packet: bytes) -> None:
+        if self.broken:
+            raise OSError("connection reset by peer")
+        self.sent.append(packet)
+
+    def close(self) -> None:
+        self.closed = True
+
+
+def _wait_for(cond: Callable[[], bool], timeout_s: float = 5.0) -> bool:
+    deadline = time.monotonic() + timeout_s
+    while not cond() and time.monotonic() < deadline:
+        time.sleep(0.01)
+    return cond()
+
+
+def test_sink_survives_a_broken_tcp_connection(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A send failing mid-batch drops the rest of the batch; the next batch reconnects."""
+    sink = MavlinkAlarmSink("tcp:127.0.0.1:9", vehicle=1)
+    conns = [_FakeTcp(broken=True), _FakeTcp(broken=False)]
+    monkeypatch.setattr(sink, "_connect", lambda: conns.pop(0))
+    broken, good = conns
+    with sink._cv:  # three texts in one batch (the condition's lock is re-entrant)
+        for _ in range(3):
+            sink.send_text("FDI test", mavlink.MAV_SEVERITY_WARNING)
+    assert _wait_for(lambda: sink.n_dropped == 3)
+    assert broken.closed and sink.n_errors == 1 and sink.n_published == 0
+    sink.send_text("FDI again", mavlink.MAV_SEVERITY_WARNING)
+    assert _wait_for(lambda: sink.n_published == 1)
+    sink.close()
+    assert len(good.sent) == 1 and good.closed
 
 
 def test_rate_requester_falls_back_and_measures() -> None:
