@@ -359,7 +359,14 @@ class ServoTier:
         self._seen = False  # SURF has been in the telemetry
         self._judge_from_us: int | None = None
         self._rows = np.zeros((len(SURFACES), N_OUT))
-        self._estimates: list[Estimate] = []
+        self._est_t_us: int | None = None  # the Frame whose SURF sample self._rows holds
+        # the estimates' keys, made once (built per sample, they showed in replay profiles)
+        self._keys = [(f"{name}_x", f"{name}_x_nominal", servo_channel(k, "input"),
+                       ChannelId(SURFACE_KIND, k, "output_rod"),
+                       ChannelId(SURFACE_KIND, k, "output_surface"),
+                       ChannelId(SURFACE_KIND, k, "rod"), ChannelId(SURFACE_KIND, k, "valve"),
+                       ChannelId(SURFACE_KIND, k, "rod_command"))
+                      for k, name in enumerate(SURFACES)]
         self._why = ""  # why the last new sample was not stepped on (restart)
 
     # -- predict ---------------------------------------------------------------------------------
@@ -398,13 +405,13 @@ class ServoTier:
                 for j, g in enumerate(self.filters):
                     g.start(cmd_l[j], rod_l[j])
                 return ServoPrediction(True, None, why)
-        self._estimates = self._make_estimates(frame.t_us, rows)
+        self._est_t_us = frame.t_us  # estimates made in update(), from the same rows
         return ServoPrediction(True, rows)
 
     def _restart(self, t_s_us: int, why: str) -> None:
         self._judge_from_us = t_s_us + round(self.cfg.warmup_s * US_PER_S)
         self._why = why
-        self._estimates = []
+        self._est_t_us = None
         self._period.gap()
 
     # -- judge -----------------------------------------------------------------------------------
@@ -467,9 +474,9 @@ class ServoTier:
     # -- update ----------------------------------------------------------------------------------
     def update(self, frame: Frame, verdict: Verdict) -> list[Estimate]:
         """The filters' estimates of this Frame's SURF sample (none without one)."""
-        if not verdict.status.sample:
+        if not verdict.status.sample or self._est_t_us is None:
             return []
-        return self._estimates
+        return self._make_estimates(self._est_t_us, self._rows)
 
     def _make_estimates(self, t_us: int, rows: np.ndarray) -> list[Estimate]:
         iots_states: dict[str, np.ndarray] = {}
@@ -478,16 +485,16 @@ class ServoTier:
         f_out: dict[ChannelId, float] = {}
         res_in: dict[ChannelId, float] = {}
         virt: dict[ChannelId, float] = {}
-        for k, name in enumerate(SURFACES):
-            r = rows[k]
-            iots_states[f"{name}_x"] = r[O_X1:O_X3 + 1].copy()
-            rts_states[f"{name}_x_nominal"] = r[O_N1:O_N3 + 1].copy()
-            f_in[servo_channel(k, "input")] = float(r[O_F_IN])
-            f_out[ChannelId(SURFACE_KIND, k, "output_rod")] = float(r[O_F_ROD])
-            f_out[ChannelId(SURFACE_KIND, k, "output_surface")] = float(r[O_F_SURF])
-            res_in[ChannelId(SURFACE_KIND, k, "rod")] = float(r[O_NU])
-            virt[ChannelId(SURFACE_KIND, k, "valve")] = float(r[O_U])
-            virt[ChannelId(SURFACE_KIND, k, "rod_command")] = float(r[O_Q_COM])
+        for (x, xn, c_in, c_rod, c_surf, c_res, c_valve, c_cmd), r in zip(
+                self._keys, rows.tolist(), strict=True):
+            iots_states[x] = np.array(r[O_X1:O_X3 + 1])
+            rts_states[xn] = np.array(r[O_N1:O_N3 + 1])
+            f_in[c_in] = r[O_F_IN]
+            f_out[c_rod] = r[O_F_ROD]
+            f_out[c_surf] = r[O_F_SURF]
+            res_in[c_res] = r[O_NU]
+            virt[c_valve] = r[O_U]
+            virt[c_cmd] = r[O_Q_COM]
         return [Estimate(IOTSEKF_NAME, t_us, states=iots_states, faults=f_in, residuals=res_in,
                          virtual=virt),
                 Estimate(RTSEKF_NAME, t_us, states=rts_states, faults=f_out)]
