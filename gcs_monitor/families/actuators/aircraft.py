@@ -342,7 +342,9 @@ class AircraftTier:
         if not math.isfinite(v):
             return 1.0
         if self._v_ref <= 0.0:
-            self._v_ref = v
+            if v < self.cfg.model.min_airspeed_mps:  # on the ground: no reference yet (a real
+                return 1.0  # flight's first airspeed may be 0, which cannot scale anything)
+            self._v_ref = v  # the first airspeed at which the surfaces can be judged
         r = v / self._v_ref
         return r * r
 

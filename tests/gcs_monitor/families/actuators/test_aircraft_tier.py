@@ -142,3 +142,17 @@ def test_commands_and_responses_on_different_frames_still_step():
     _run(tier, out)
     assert abs(tier.axes[0].period.seconds() - 5 * DT) < 1e-9
     assert tier.axes[0].steps == pytest.approx(len(frames) / 5, abs=2)
+
+
+
+def test_the_airspeed_reference_is_never_zero():
+    """A real log (Zipline) starts at 0 m/s airspeed: the dynamic-pressure scaling
+    (V / V_ref)^2 takes its reference from the first airspeed at which the surfaces can be
+    judged, not from 0 (the replay divided by zero)."""
+    from types import SimpleNamespace
+
+    tier = _tier()
+    assert tier._scale(SimpleNamespace(airspeed_mps=0.0)) == 1.0  # no reference yet
+    assert tier._scale(SimpleNamespace(airspeed_mps=3.0)) == 1.0  # below min_airspeed_mps
+    assert tier._scale(SimpleNamespace(airspeed_mps=20.0)) == 1.0  # the reference
+    assert tier._scale(SimpleNamespace(airspeed_mps=40.0)) == pytest.approx(4.0)
