@@ -57,6 +57,9 @@ _IMU = re.compile(r"^imu(\d)\.(acc|gyro)\.([xyzpqr])$")
 _AIR = re.compile(r"^(aoa|cas)(\d)$")
 SCORED = (AlarmKind.SENSOR_FAULT, AlarmKind.SET_LOST, AlarmKind.ACTUATOR_FAULT)
 GRACE_US = 1_000_000
+# alarm channel kinds of the actuator family: the servo tier's surfaces, the aircraft tier's
+# actuators (instance = the simulator's actuator index: aileron, elevator, rudder, engine)
+ACTUATOR_KINDS = ("surface", "actuator")
 
 
 def truth_channel(name: str) -> ChannelId | None:
@@ -122,6 +125,12 @@ def score(name: str, sc: Scenario, events: Sequence[AlarmEvent],
         if ch is not None:
             end = None if f.t_end_s is None else round(f.t_end_s * 1e6)
             truth.setdefault(ch, []).append((round(f.t_start_s * 1e6), end))
+    # actuator faults (Lu2017 classes on a surface, or aircraft-level faults on a surface or
+    # the engine): found by an alarm of either tier of the actuator family on that actuator
+    act_truth: dict[int, list[tuple[int, int | None]]] = {}
+    for af in sc.actuator_faults:
+        end = None if af.t_end_s is None else round(af.t_end_s * 1e6)
+        act_truth.setdefault(af.surface, []).append((round(af.t_start_s * 1e6), end))
     raised = [e for e in events if e.state is AlarmState.RAISED]
     for e in raised:
         if e.kind is AlarmKind.MONITOR_DEGRADED:
@@ -134,10 +143,21 @@ def score(name: str, sc: Scenario, events: Sequence[AlarmEvent],
             if hit is not None:
                 out.detected += 1
                 out.delays_s.append((hit - t0) * 1e-6)
+    for k, spans in act_truth.items():
+        for t0, t1 in spans:
+            out.faults += 1
+            hit = next((e.t_us for e in raised if e.kind in SCORED
+                        and e.channel.kind in ACTUATOR_KINDS and e.channel.instance == k
+                        and e.t_us >= t0 and (t1 is None or e.t_us <= t1 + GRACE_US)), None)
+            if hit is not None:
+                out.detected += 1
+                out.delays_s.append((hit - t0) * 1e-6)
     for e in raised:
         if e.kind not in SCORED:
             continue
         ch = e.channel
+        if ch.kind in ACTUATOR_KINDS and ch.instance in act_truth:
+            continue
         base = ChannelId(ch.kind, ch.instance, ch.axis) if ch.instance >= 0 else ch
         if base not in truth and not any(t.kind == ch.kind for t in truth if ch.instance < 0):
             out.false_alarms.append(str(ch))
