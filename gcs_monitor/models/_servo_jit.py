@@ -244,6 +244,14 @@ def propagate(s, qc0, qc1, f_in, dt, t_knee, n_sub, prm, jac, q_valve, q_state, 
     k3 = np.empty(N_S)
     k4 = np.empty(N_S)
     t = np.empty(N_S)
+    if not jac:  # the state alone (the filters call this most): no tangent arrays
+        for k in range(n_sub):
+            t0 = k * h
+            qa = command_at(qc0, qc1, t0, t_knee)
+            qm = command_at(qc0, qc1, t0 + 0.5 * h, t_knee)
+            qb = command_at(qc0, qc1, t0 + h, t_knee)
+            _rk4(s, qa, qm, qb, f_in, h, prm, k1, k2, k3, k4, t)
+        return
     A = np.empty((N_S, N_S))
     G = np.empty(N_S)
     M = np.empty((N_S, N_S + 1))
@@ -255,20 +263,16 @@ def propagate(s, qc0, qc1, f_in, dt, t_knee, n_sub, prm, jac, q_valve, q_state, 
     W = np.empty((N_S, N_S))
     W2 = np.empty((N_S, N_S))
     g0 = np.empty(N_S)
-    if jac:
-        for i in range(N_S):
-            Gam[i] = 0.0
-            for j in range(N_S):
-                Phi[i, j] = 1.0 if i == j else 0.0
-                Qd[i, j] = 0.0
+    for i in range(N_S):
+        Gam[i] = 0.0
+        for j in range(N_S):
+            Phi[i, j] = 1.0 if i == j else 0.0
+            Qd[i, j] = 0.0
     for k in range(n_sub):
         t0 = k * h
         qa = command_at(qc0, qc1, t0, t_knee)
         qm = command_at(qc0, qc1, t0 + 0.5 * h, t_knee)
         qb = command_at(qc0, qc1, t0 + h, t_knee)
-        if not jac:
-            _rk4(s, qa, qm, qb, f_in, h, prm, k1, k2, k3, k4, t)
-            continue
         for i in range(N_S):  # the substep's tangent starts at [I | 0]
             for j in range(N_S + 1):
                 M[i, j] = 1.0 if i == j else 0.0
@@ -330,12 +334,11 @@ def propagate(s, qc0, qc1, f_in, dt, t_knee, n_sub, prm, jac, q_valve, q_state, 
         for i in range(N_S):
             for j in range(N_S):
                 Qd[i, j] = W2[i, j]
-    if jac:
-        for i in range(N_S):
-            for j in range(i + 1, N_S):
-                v = 0.5 * (Qd[i, j] + Qd[j, i])
-                Qd[i, j] = v
-                Qd[j, i] = v
+    for i in range(N_S):
+        for j in range(i + 1, N_S):
+            v = 0.5 * (Qd[i, j] + Qd[j, i])
+            Qd[i, j] = v
+            Qd[j, i] = v
 
 
 @jit

@@ -3,9 +3,10 @@
 ``servo_filters.ServoFilters`` wraps it (see that module for the model and the choices); the
 numpy reference of the equivalence test is ``tests/reference/servo_filters.py``, which chains
 the same kernels of ``models/_servo_jit.py``, ``filters/_iotsekf_jit.py`` and
-``filters/_three_step_jit.py`` from Python. One call per surface and SURF sample, on a packed
-state (``S_*`` offsets) and a configuration vector (``C_*``); writes the output row (``O_*`` of
-``servo_filters``). Loaded through ``gcs_monitor.core.kernels``.
+``filters/_three_step_jit.py`` from Python. One surface and SURF sample per ``surface_step``,
+on a packed state (``S_*`` offsets) and a configuration vector (``C_*``); writes the output row
+(``O_*`` of ``servo_filters``). ``surfaces_step`` steps every surface of a vehicle in one call
+(the monitor's path: one dispatch per SURF sample). Loaded through ``gcs_monitor.core.kernels``.
 """
 # ruff: noqa: N803, N806, E741
 # mypy: disable-error-code="no-untyped-def"
@@ -23,7 +24,7 @@ from gcs_monitor.models._servo_jit import ndi, propagate
 
 # this file calls the jitted functions of these files: see gcs_monitor.core.kernels
 KERNEL_DEPENDENCIES = {
-    "gcs_monitor.models._servo_jit": "b8dbc61a6eef81a2",
+    "gcs_monitor.models._servo_jit": "00ceed01cb7d3f3e",
     "gcs_monitor.filters._iotsekf_jit": "1ee067051d035b30",
     "gcs_monitor.filters._three_step_jit": "e27af0ed83669903",
 }
@@ -296,3 +297,16 @@ def surface_step(st, dt, cmd_rad, y_rod, y_surf_rad, prm, cfg, out):
     out[O_SF_D] = math.sqrt(max(Pfr[0, 0] + Pfr[1, 1] - 2.0 * Pfr[0, 1], 0.0))
     out[O_JIT] = jitv
     return OK
+
+
+@jit
+def surfaces_step(st, dt, cmd_rad, y_rod, y_surf_rad, prm, cfg, out):
+    """``surface_step`` of every surface ``k`` in turn: state row ``st[k]`` (n, N_STATE),
+    command, rod and surface samples ``[k]``, output row ``out[k]`` (n, N_OUT), the same
+    ``prm`` and ``cfg`` for all. Returns -1, or the index of the first surface whose step
+    failed (it and the surfaces after it are left as they were; the caller restarts all)."""
+    for k in range(st.shape[0]):
+        if surface_step(st[k], dt, cmd_rad[k], y_rod[k], y_surf_rad[k], prm, cfg,
+                        out[k]) != OK:
+            return k
+    return -1

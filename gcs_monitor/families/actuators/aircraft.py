@@ -201,11 +201,14 @@ class _Axis:
 
     @property
     def faulty(self) -> bool:
-        return any(c is not None and c.faulty for c in (self.res, self.eff))
+        res, eff = self.res, self.eff
+        return (res is not None and res.faulty) or (eff is not None and eff.faulty)
 
     def suspected(self, ratio: float) -> bool:
         """A check is confirmed, or its J is above ``ratio`` x J_th."""
-        return any(c is not None and c.suspected(ratio) for c in (self.res, self.eff))
+        res, eff = self.res, self.eff
+        return ((res is not None and res.suspected(ratio))
+                or (eff is not None and eff.suspected(ratio)))
 
     @property
     def ratio(self) -> float:
@@ -253,6 +256,7 @@ class AircraftTier:
                            fdi.effectiveness, one_sided=i == ENGINE)
                      for i in range(len(CHANNELS))]
         self._v_ref = cfg.model.airspeed_ref_mps
+        self._history_us = round(cfg.fdi.classify.history_s * US_PER_S)  # classifier history
         self._seen_inputs = False
         self._estimate: Estimate | None = None
         self._max_defl = cfg.outputs.max_deflection_rad
@@ -410,7 +414,7 @@ class AircraftTier:
             return Verdict(FamilyStatus(self.name, t, False, sample=False,
                                         reason="no new control sample",
                                         inputs=self._seen_inputs))
-        stepped: list[tuple[_Axis, float, list[float], float]] = []
+        stepped: list[tuple[_Axis, float, list[float], np.ndarray, float]] = []
         reasons: list[str] = []
         for ax in self.axes:
             step = self._step_axis(ax, s, reasons)
@@ -421,8 +425,8 @@ class AircraftTier:
         statuses: list[ChannelStatus] | None = [] if self.ctx.statuses else None
         events = self._decide(t, stepped, statuses)
         freeze = any(ax.suspected(self.cfg.model.freeze_ratio) for ax in self.axes)
-        for ax, y, phi, sq in stepped:
-            self._learn(ax, y, phi, sq, freeze)
+        for ax, y, phi, phi_v, sq in stepped:
+            self._learn(ax, y, phi, phi_v, sq, freeze)
         self._pending = any(ax.mode and self._command_t(ax, s) > ax.cmd_t_us
                             for ax in self.axes)
         judged = any(ax.judged for ax, *_ in stepped)
@@ -439,9 +443,10 @@ class AircraftTier:
         return [self._estimate] if self._estimate is not None else []
 
     # -- per axis ----------------------------------------------------------------------------
-    def _step_axis(self, ax: _Axis, s: Signals,
-                   reasons: list[str]) -> tuple[_Axis, float, list[float], float] | None:
-        """Advance one axis by a new control sample; (axis, y, phi, scale) when it stepped."""
+    def _step_axis(self, ax: _Axis, s: Signals, reasons: list[str]
+                   ) -> tuple[_Axis, float, list[float], np.ndarray, float] | None:
+        """Advance one axis by a new control sample; (axis, y, phi, phi as an array, scale)
+        when it stepped."""
         ax.judged = False
         mode = self._mode(ax, s)
         if not mode:  # a command stream gone quiet (or stale) keeps the models it had
@@ -466,7 +471,7 @@ class AircraftTier:
             # a median of 16 intervals: every step while it settles, then now and then
             ax.period_s = ax.period.seconds()
         y, phi = self._regression(ax, s, prev)
-        if not (math.isfinite(y) and all(math.isfinite(x) for x in phi)):
+        if not (math.isfinite(y) and all(map(math.isfinite, phi))):
             reasons.append(f"{ax.channel.axis}: inputs not finite")
             return None
         m = self.cfg.model
@@ -482,7 +487,7 @@ class AircraftTier:
         ax.nu = nu
         sq = self._scale(prev)
         ax.hist.append((s.t_us, phi[0], e, sq))
-        horizon = s.t_us - round(self.cfg.fdi.classify.history_s * US_PER_S)
+        horizon = s.t_us - self._history_us
         while ax.hist and ax.hist[0][0] < horizon:
             ax.hist.popleft()
         why = self._not_judged(ax, s)
@@ -502,7 +507,7 @@ class AircraftTier:
             ax.eff.update(max(ax.z, 0.0) / scale)
         ax.command_rad = prev.u_rad[ax.index] if ax.index != ENGINE and ax.mode == SERVO \
             else math.nan
-        return ax, y, phi, sq
+        return ax, y, phi, phi_v, sq
 
     def _not_judged(self, ax: _Axis, s: Signals) -> str:
         m = self.cfg.model
@@ -557,13 +562,14 @@ class AircraftTier:
             return 0.0
         return -float(trk.theta[0]) * (1.0 if ref.theta[0] >= 0.0 else -1.0) / se
 
-    def _learn(self, ax: _Axis, y: float, phi: list[float], sq: float, freeze: bool) -> None:
-        """Tracking model always; reference model and residual RMS only in healthy flight."""
+    def _learn(self, ax: _Axis, y: float, phi: list[float], phi_v: np.ndarray, sq: float,
+               freeze: bool) -> None:
+        """Tracking model always; reference model and residual RMS only in healthy flight
+        (``phi_v``: ``phi`` as an array)."""
         assert ax.ref is not None and ax.trk is not None and ax.prev is not None
         m = self.cfg.model
         period = ax.period_s
         dt = period if math.isfinite(period) else 0.1
-        phi_v = np.array(phi)
         tr = m.covariance_trace_max
         # tracking regression of the reference residual on the command: e = b (kappa - 1) x + c
         # (unweighted: it is there to follow a change, large residuals included)
@@ -603,7 +609,8 @@ class AircraftTier:
                 ax.position_rad = math.nan
 
     # -- decisions ---------------------------------------------------------------------------
-    def _decide(self, t_us: int, stepped: list[tuple[_Axis, float, list[float], float]],
+    def _decide(self, t_us: int,
+                stepped: list[tuple[_Axis, float, list[float], np.ndarray, float]],
                 statuses: list[ChannelStatus] | None) -> list[AlarmEvent]:
         """Isolation among the confirmed axes, alarm transitions, channel statuses."""
         fdi = self.cfg.fdi

@@ -54,20 +54,28 @@ class ActuatorFamily:
             return Verdict(FamilyStatus(self.name, t, False, reason="no tier enabled",
                                         inputs=False))
         verdicts = [tier.judge(frame, p) for tier, p in zip(self.tiers, prediction, strict=True)]
-        judged = any(v.status.judged for v in verdicts)
-        reasons = [f"{tier.name}: {v.status.reason}" for tier, v in zip(self.tiers, verdicts,
-                                                                           strict=True)
-                   if not v.status.judged and v.status.reason]
-        out = Verdict(FamilyStatus(
-            self.name, t, judged, sample=any(v.status.sample for v in verdicts),
-            reason="" if judged else "; ".join(reasons),
-            inputs=any(v.status.inputs for v in verdicts)))
         self._verdicts = verdicts
+        judged = sample = inputs = False
         for v in verdicts:
-            out.events += v.events
-            out.channels += v.channels
-            out.sets += v.sets
-            out.fused.update(v.fused)
+            st = v.status
+            judged = judged or st.judged
+            sample = sample or st.sample
+            inputs = inputs or st.inputs
+        reason = "" if judged else "; ".join(
+            [f"{tier.name}: {v.status.reason}" for tier, v in zip(self.tiers, verdicts,
+                                                                  strict=True)
+             if v.status.reason])
+        out = Verdict(FamilyStatus(self.name, t, judged, sample=sample, reason=reason,
+                                   inputs=inputs))
+        for v in verdicts:  # most Frames: nothing to gather
+            if v.events:
+                out.events += v.events
+            if v.channels:
+                out.channels += v.channels
+            if v.sets:
+                out.sets += v.sets
+            if v.fused:
+                out.fused.update(v.fused)
         return out
 
     def update(self, frame: Frame, verdict: Verdict) -> list[Estimate]:

@@ -70,8 +70,8 @@ from gcs_monitor.families.actuators.servo_filters import (
     O_X1,
     O_X3,
     O_Y_ROD,
+    ServoFilterBank,
     ServoFilterConfig,
-    ServoFilters,
     ServoSensors,
 )
 from gcs_monitor.families.base import FamilyContext, Verdict
@@ -186,6 +186,9 @@ class ServoPrediction:
     reinit: str = ""
 
 
+NO_SAMPLE = ServoPrediction(False)  # the Frames without a new SURF sample (most of them)
+
+
 class _History:
     """Ring buffer of the last ``n`` rows of one surface (columns: the filter outputs)."""
 
@@ -197,7 +200,7 @@ class _History:
         self.idx = 0
         self.count = 0
 
-    def push(self, row: np.ndarray) -> None:
+    def push(self, row: np.ndarray | list[float]) -> None:
         self.buf[self.idx] = row
         self.idx = (self.idx + 1) % self.n
         self.count = min(self.count + 1, self.n)
@@ -237,28 +240,32 @@ class _SurfaceFdi:
         self.onset_n = 0  # history rows since the detection's onset
         self.since_class = 0
         self.last_class: ServoClass | None = None
+        # per axis, what step() reads (made once: the step runs at the SURF rate)
+        self._axes = [(a, self.rms[a], self.conf[a], self.p[a].threshold, self.per_jitter[a],
+                       servo_channel(surface, a), ESTIMATORS[a]) for a in AXES]
 
-    def step(self, t_us: int, row: np.ndarray, statuses: list[ChannelStatus] | None
+    def step(self, t_us: int, row: list[float], statuses: list[ChannelStatus] | None
              ) -> list[AlarmEvent]:
-        f_in = float(row[O_F_IN])
+        """Judge one output row (``O_*``, as Python floats) of the surface's filters."""
+        f_rod = row[O_F_ROD]
         # the output detector in sigmas of the RTS-EKF's own P^f (eq. 43): the rod sensor's
         # deviation from the nominal servo, or the rod-surface disagreement, the larger
-        z_rod = float(row[O_F_ROD]) / float(row[O_SF_ROD])
-        z_d = (float(row[O_F_ROD]) - float(row[O_F_SURF])) / float(row[O_SF_D])
+        z_rod = f_rod / row[O_SF_ROD]
+        z_d = (f_rod - row[O_F_SURF]) / row[O_SF_D]
         v_out = z_rod if abs(z_rod) >= abs(z_d) else z_d
         self.hist.push(row)
-        values = {"input": f_in, "output": v_out}
-        jit = float(row[O_JIT])
-        for a in AXES:
-            j = self.rms[a].update(values[a])
-            self.J[a] = j
-            th = self.p[a].threshold + self.per_jitter[a] * jit
-            self.th[a] = th
-            self.faulty[a] = self.conf[a].update(j, th)
+        jit = row[O_JIT]
+        J, th_now, faulty = self.J, self.th, self.faulty
+        for (a, rms, conf, threshold, per_jitter, channel, estimator), value in zip(
+                self._axes, (row[O_F_IN], v_out), strict=True):
+            j = rms.update(value)
+            J[a] = j
+            th = threshold + per_jitter * jit
+            th_now[a] = th
+            faulty[a] = f = conf.update(j, th)
             if statuses is not None:
-                statuses.append(ChannelStatus(servo_channel(self.k, a), t_us, values[a], j,
-                                              th, self.faulty[a], ESTIMATORS[a]))
-        detected = self.faulty["input"] or self.faulty["output"]
+                statuses.append(ChannelStatus(channel, t_us, value, j, th, f, estimator))
+        detected = faulty["input"] or faulty["output"]
         if not detected:
             self.onset_n = 0
             if self.active_axis is None:
@@ -348,8 +355,9 @@ class ServoTier:
     def __init__(self, cfg: ServoTierConfig, ctx: FamilyContext) -> None:
         self.cfg = cfg
         self.ctx = ctx
-        self.filters = [ServoFilters(cfg.servo, cfg.loop, cfg.sensors, cfg.filters)
-                        for _ in SURFACES]
+        self.bank = ServoFilterBank(len(SURFACES), cfg.servo, cfg.loop, cfg.sensors,
+                                    cfg.filters)
+        self.filters = self.bank.filters
         self._period = SamplePeriod()
         self.period_s = math.nan  # SURF period the windows were sized with
         # rod rate per unit valve command at no load, phi_n / A_p (Lu2017 eq. 4)
@@ -359,6 +367,7 @@ class ServoTier:
         self._seen = False  # SURF has been in the telemetry
         self._judge_from_us: int | None = None
         self._rows = np.zeros((len(SURFACES), N_OUT))
+        self._row_lists: list[list[float]] = []  # self._rows as Python floats
         self._est_t_us: int | None = None  # the Frame whose SURF sample self._rows holds
         # the estimates' keys, made once (built per sample, they showed in replay profiles)
         self._keys = [(f"{name}_x", f"{name}_x_nominal", servo_channel(k, "input"),
@@ -374,11 +383,11 @@ class ServoTier:
         """Both filters of every surface on a new SURF sample (module docstring)."""
         cmd, pos, rod = frame.surf_cmd_rad, frame.surf_pos_rad, frame.rod_pos_m
         if cmd is None or pos is None or rod is None:
-            return ServoPrediction(False)
+            return NO_SAMPLE
         t_s = frame.t_us - round(frame.surf_age_s * US_PER_S)
         last = self._last_us
         if last is not None and t_s <= last:
-            return ServoPrediction(False)
+            return NO_SAMPLE
         self._seen = True
         self._last_us = t_s
         self._period.add(t_s)
@@ -398,13 +407,14 @@ class ServoTier:
                 f.start(cmd_l[k], rod_l[k])
             return ServoPrediction(True, None, why)
         rows = self._rows
-        for k, f in enumerate(self.filters):
-            if not f.step(dt, cmd_l[k], rod_l[k], pos_l[k], rows[k]):
-                why = f"{SURFACES[k]}: numerical failure"
-                self._restart(t_s, why)
-                for j, g in enumerate(self.filters):
-                    g.start(cmd_l[j], rod_l[j])
-                return ServoPrediction(True, None, why)
+        failed = self.bank.step(dt, cmd, rod, pos, rows)
+        if failed >= 0:
+            why = f"{SURFACES[failed]}: numerical failure"
+            self._restart(t_s, why)
+            for j, g in enumerate(self.filters):
+                g.start(cmd_l[j], rod_l[j])
+            return ServoPrediction(True, None, why)
+        self._row_lists = rows.tolist()  # judge() and update() read the rows as floats
         self._est_t_us = frame.t_us  # estimates made in update(), from the same rows
         return ServoPrediction(True, rows)
 
@@ -446,8 +456,8 @@ class ServoTier:
         assert self._fdi is not None
         verdict = Verdict(FamilyStatus(self.name, t, True))
         statuses = verdict.channels if self.ctx.statuses else None
-        for k, fdi in enumerate(self._fdi):
-            ev = fdi.step(t, prediction.rows[k], statuses)
+        for fdi, row in zip(self._fdi, self._row_lists, strict=True):
+            ev = fdi.step(t, row, statuses)
             if ev:
                 verdict.events += ev
         return verdict
@@ -476,9 +486,9 @@ class ServoTier:
         """The filters' estimates of this Frame's SURF sample (none without one)."""
         if not verdict.status.sample or self._est_t_us is None:
             return []
-        return self._make_estimates(self._est_t_us, self._rows)
+        return self._make_estimates(self._est_t_us, self._row_lists)
 
-    def _make_estimates(self, t_us: int, rows: np.ndarray) -> list[Estimate]:
+    def _make_estimates(self, t_us: int, rows: list[list[float]]) -> list[Estimate]:
         iots_states: dict[str, np.ndarray] = {}
         rts_states: dict[str, np.ndarray] = {}
         f_in: dict[ChannelId, float] = {}
@@ -486,7 +496,7 @@ class ServoTier:
         res_in: dict[ChannelId, float] = {}
         virt: dict[ChannelId, float] = {}
         for (x, xn, c_in, c_rod, c_surf, c_res, c_valve, c_cmd), r in zip(
-                self._keys, rows.tolist(), strict=True):
+                self._keys, rows, strict=True):
             iots_states[x] = np.array(r[O_X1:O_X3 + 1])
             rts_states[xn] = np.array(r[O_N1:O_N3 + 1])
             f_in[c_in] = r[O_F_IN]

@@ -156,13 +156,22 @@ class ServoFilters:
     """
 
     def __init__(self, servo: ServoParams, loop: ServoLoopParams, sensors: ServoSensors,
-                 cfg: ServoFilterConfig) -> None:
+                 cfg: ServoFilterConfig, state: np.ndarray | None = None) -> None:
+        """``state``: the (N_STATE,) array to keep the packed state in (a row of the servo
+        tier's array of all surfaces, stepped at once by ``_servo_filters_jit.surfaces_step``);
+        a new one by default."""
         self.cfg = cfg
         self.sensors = sensors
         self.prm = pack_params(servo, loop, sensors.rod_stroke_m)
         self._k = k = load_kernels(_KERNEL)
         self._cfgv = pack_config(sensors, cfg)
-        self.st = np.zeros(k.N_STATE)
+        if state is None:
+            state = np.zeros(k.N_STATE)
+        elif state.shape != (k.N_STATE,):
+            raise ValueError(f"state must have shape ({k.N_STATE},), got {state.shape}")
+        else:
+            state[:] = 0.0
+        self.st = state
         self.started = False
 
     def rod_command(self, cmd_rad: float) -> float:
@@ -239,3 +248,28 @@ class ServoFilters:
     def q_com(self) -> float:
         """The rod command of the last sample (m)."""
         return float(self.st[self._k.S_QCOM])
+
+
+class ServoFilterBank:
+    """The filters of ``n`` surfaces with the same servo, stepped together: their packed
+    states are the rows of one (n, N_STATE) array and one kernel call
+    (``_servo_filters_jit.surfaces_step``) runs :meth:`ServoFilters.step` of each, in order.
+
+    ``filters[k]`` is surface ``k``'s :class:`ServoFilters` (start, views of its state)."""
+
+    def __init__(self, n: int, servo: ServoParams, loop: ServoLoopParams, sensors: ServoSensors,
+                 cfg: ServoFilterConfig) -> None:
+        self._k = k = load_kernels(_KERNEL)
+        self.states = np.zeros((n, k.N_STATE))
+        self.filters = [ServoFilters(servo, loop, sensors, cfg, state=self.states[i])
+                        for i in range(n)]
+        self._prm = self.filters[0].prm
+        self._cfgv = self.filters[0]._cfgv
+
+    def step(self, dt_s: float, cmd_rad: np.ndarray, y_rod_m: np.ndarray,
+             y_surf_rad: np.ndarray, out: np.ndarray) -> int:
+        """One SURF interval of every surface (samples (n,), output rows ``out`` (n, N_OUT)):
+        -1, or the index of the first surface with a numerical failure (it and the surfaces
+        after it keep their previous state; the caller restarts them)."""
+        return int(self._k.surfaces_step(self.states, dt_s, cmd_rad, y_rod_m, y_surf_rad,
+                                         self._prm, self._cfgv, out))

@@ -29,6 +29,7 @@ from gcs_monitor.families.actuators.servo_filters import (
     O_SF_ROD,
     O_U,
     O_X1,
+    ServoFilterBank,
     ServoFilterConfig,
     ServoFilters,
     ServoSensors,
@@ -187,6 +188,30 @@ def test_kernel_equals_reference(case: str) -> None:
                               (O_SF_D, "sf_d", 1e-3), (O_JIT, "jit", 1e-3)):
             assert abs(out[i] - r[key]) <= 1e-12 * scale + 1e-12 * abs(r[key]), key
         np.testing.assert_allclose(out[O_X1:O_X1 + 3], r["x"], rtol=1e-9, atol=1e-13)
+
+
+def test_bank_equals_one_filter_per_surface() -> None:
+    """The bank's one kernel call for all surfaces (``surfaces_step``, the tier's path) gives
+    bit for bit the states and output rows of one :class:`ServoFilters` per surface, a fault
+    on the elevator included."""
+    frames = simulate((FAULTS["runaway"],), duration_s=10.0)
+    args = (ServoParams(), ServoLoopParams(), SENS, ServoFilterConfig())
+    bank = ServoFilterBank(3, *args)
+    single = [ServoFilters(*args) for _ in range(3)]
+    f0 = frames[0]
+    for k in range(3):
+        for f in (bank.filters[k], single[k]):
+            f.start(float(f0.surf_cmd_rad[k]), float(f0.rod_pos_m[k]))
+    rows = np.zeros((3, N_OUT))
+    out = np.zeros(N_OUT)
+    for p, q in zip(frames, frames[1:], strict=False):
+        dt = (q.t_us - p.t_us) * 1e-6
+        assert bank.step(dt, q.surf_cmd_rad, q.rod_pos_m, q.surf_pos_rad, rows) == -1
+        for k, f in enumerate(single):
+            assert f.step(dt, float(q.surf_cmd_rad[k]), float(q.rod_pos_m[k]),
+                          float(q.surf_pos_rad[k]), out)
+            assert rows[k].tobytes() == out.tobytes()
+            assert bank.filters[k].st.tobytes() == f.st.tobytes()
 
 
 def test_covariances_stay_symmetric_psd_through_faults() -> None:
