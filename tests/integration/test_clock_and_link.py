@@ -75,7 +75,8 @@ def test_the_clock_stepping_back(flight):
     assert [e.t_us for e in r.events] == [100_000, 5_100_000]
     lk = r.health["vehicles"]["1"]["link"]
     assert lk["reboots"] == 1 and lk["time_rejected"] == 0 and lk["time_jumps"] == 0
-    assert r.builds == [["imu", "airdata", "yaw_rate", "actuators"], ["imu", "airdata", "yaw_rate", "actuators"]]
+    families = ["imu", "airdata", "yaw_rate", "actuators"]
+    assert r.builds == [families, families]
 
 
 def test_the_clock_stepping_forward(flight):
@@ -86,8 +87,9 @@ def test_the_clock_stepping_forward(flight):
     reports ``monitor_degraded`` from the first frame after the step until it has judged 90 %
     of a 10 s window again; so does the yaw-rate family, which cannot judge the first frames
     after the step (the untimed AIRSPEED of the new time line arrives after them) and whose
-    observer re-anchors at the first sample with all its inputs; so does the actuator family (60 s
-    without commands are 60 s not judged); the air-data sets judge from the first sample. Nothing else."""
+    observer re-anchors at the first sample with all its inputs; so does the actuator family
+    (60 s without commands are 60 s not judged); the air-data sets judge from the first sample.
+    Nothing else."""
     jump_us = 60_000_000
     r = run_monitor(join(_clock_step(flight, jump_us)))
     assert sorted(_events(r.events)) == sorted(

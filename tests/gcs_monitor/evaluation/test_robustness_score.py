@@ -7,8 +7,8 @@ import math
 
 from gcs_monitor.core.types import ChannelId
 from gcs_monitor.evaluation.papers.robustness import score
-from gcs_monitor.fdi.events import AlarmEvent, AlarmKind, AlarmState, FaultType
 from gcs_monitor.evaluation.scenarios import preset
+from gcs_monitor.fdi.events import AlarmEvent, AlarmKind, AlarmState, FaultType
 
 
 def _raise(t_s: float, ch: ChannelId, kind: AlarmKind) -> AlarmEvent:
