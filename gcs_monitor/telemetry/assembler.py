@@ -420,10 +420,15 @@ class FrameAssembler:
             return out
         if buf:
             self._drop_held()  # back on the current line: the held samples were outliers
-        return self._accept_imu(t_us, inst, ax, ay, az, p, q, r)
+        # the usual case, :meth:`_accept_imu` inline (``line`` is still the newest IMU time)
+        out = self._imu_sample(t_us, inst, ax, ay, az, p, q, r)
+        if t_us > line and self._imu_t[inst] == t_us:  # a new instant of the time line
+            self._line_instant(t_us)
+        return out
 
     def _accept_imu(self, t_us: int, inst: int, ax: float, ay: float, az: float, p: float,
                     q: float, r: float) -> list[Frame]:
+        """:meth:`_imu_sample`, then the period of the IMU time line on a new instant of it."""
         newest = self._imu_line
         out = self._imu_sample(t_us, inst, ax, ay, az, p, q, r)
         if t_us > newest and self._imu_t[inst] == t_us:  # a new instant of the time line
