@@ -155,7 +155,8 @@ class FamilyCoverage:
             events = self._alarm.step(t, degraded, fault_type=FaultType.UNKNOWN,
                                       magnitude=share, rms=math.nan,
                                       threshold=self.cfg.min_coverage, message=msg)
-        self.state = "degraded" if self._alarm.active else "judging"
+            active = self._alarm.active
+        self.state = "degraded" if active else "judging"
         return events
 
     def _evict(self, horizon: int) -> None:

@@ -196,17 +196,20 @@ class FrozenSignalCheck:
         """Per instance: frozen against its own past and its most active peer."""
         d = self.activity()
         out = [False] * len(d)
+        ratio = self.ratio
         for i, di in enumerate(d):
             past = self._past[i]
             # the newest stored window may already be the frozen one; judge against the older
-            older = past[:-1] if self._since[i] == 0 else past
-            if di != di or len(older) < 2:
+            n_older = len(past) - 1 if self._since[i] == 0 else len(past)
+            if di != di or n_older < 2:
                 continue
-            srt = sorted(older)
-            mid = len(srt) // 2
-            own = srt[mid] if len(srt) % 2 else 0.5 * (srt[mid - 1] + srt[mid])
             peer = max((x for j, x in enumerate(d) if j != i and x == x), default=0.0)
-            out[i] = peer > self.floor and di < self.ratio * own and di < self.ratio * peer
+            if not (peer > self.floor and di < ratio * peer):
+                continue  # an active instance: its own past need not be sorted
+            srt = sorted(past[:n_older])
+            mid = n_older // 2
+            own = srt[mid] if n_older % 2 else 0.5 * (srt[mid - 1] + srt[mid])
+            out[i] = di < ratio * own
         return out
 
 

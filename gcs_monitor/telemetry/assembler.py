@@ -215,6 +215,7 @@ class FrameAssembler:
         self._imu: list[ImuSample | None] = [None] * N_IMU  # latest new sample per instance
         self._imu_vals: list[tuple[float, ...]] = [()] * N_IMU  # its six values (held check)
         self._imu_t = [NEVER_US] * N_IMU  # latest message time per instance (clock checks)
+        self._imu_line = NEVER_US  # the IMU time line: max(self._imu_t), kept with it
         self._imu_msg = [0] * N_IMU  # message id feeding each instance (one source each)
         self._highres = False
         self._primary: int | None = None
@@ -226,6 +227,7 @@ class FrameAssembler:
         self._jump_buf: list[tuple[str, int, int, float, float, float, float, float,
                                    float]] = []
         self._line_period = SamplePeriod()  # of the IMU time line (distinct accepted instants)
+        self._jump_us = REBOOT_JUMP_US  # jump_bound_us(), recomputed when the period moves
         self._other_t = NEVER_US  # newest accepted time stamp of the other timed streams
         self._jump_support = 0  # other-stream samples on the held later line
         self._last_frame_t = NEVER_US
@@ -352,9 +354,14 @@ class FrameAssembler:
     def jump_bound_us(self) -> int:
         """How far ahead of the IMU time line an IMU sample may be before it is held:
         ``REBOOT_CONFIRM`` measured line periods (``REBOOT_JUMP_US`` until measured)."""
-        if not self._line_period.known:
-            return REBOOT_JUMP_US
-        return int(REBOOT_CONFIRM * self._line_period.seconds() * US_PER_S)
+        return self._jump_us
+
+    def _line_instant(self, t_us: int) -> None:
+        """A new instant of the IMU time line: into its period, and the jump bound with it."""
+        period = self._line_period
+        period.add(t_us)
+        if period.known:
+            self._jump_us = int(REBOOT_CONFIRM * period.seconds() * US_PER_S)
 
     def _time_rejected(self, key: str, n: int = 1) -> None:
         self.stats.bad_value(key, n)
@@ -366,8 +373,8 @@ class FrameAssembler:
         if not 0 <= t_us <= MAX_VEHICLE_T_US:
             self._time_rejected(key)
             return True
-        line = max(max(self._imu_t), self._other_t)
-        lim = self.jump_bound_us()
+        line = max(self._imu_line, self._other_t)
+        lim = self._jump_us
         if line == NEVER_US or t_us - line <= lim:
             if t_us > self._other_t:
                 self._other_t = t_us
@@ -387,9 +394,9 @@ class FrameAssembler:
         if not 0 <= t_us <= MAX_VEHICLE_T_US:
             self._time_rejected(key)
             return []
-        line = max(self._imu_t)
+        line = self._imu_line
         buf = self._jump_buf
-        bound = self.jump_bound_us()
+        bound = self._jump_us
         if line != NEVER_US and t_us - line > bound:
             if not buf and self._other_t != NEVER_US and t_us - self._other_t <= bound:
                 # the other streams are on this time line already: the IMU was silent, not
@@ -413,14 +420,19 @@ class FrameAssembler:
             return out
         if buf:
             self._drop_held()  # back on the current line: the held samples were outliers
-        return self._accept_imu(t_us, inst, ax, ay, az, p, q, r)
+        # the usual case, :meth:`_accept_imu` inline (``line`` is still the newest IMU time)
+        out = self._imu_sample(t_us, inst, ax, ay, az, p, q, r)
+        if t_us > line and self._imu_t[inst] == t_us:  # a new instant of the time line
+            self._line_instant(t_us)
+        return out
 
     def _accept_imu(self, t_us: int, inst: int, ax: float, ay: float, az: float, p: float,
                     q: float, r: float) -> list[Frame]:
-        newest = max(self._imu_t)
+        """:meth:`_imu_sample`, then the period of the IMU time line on a new instant of it."""
+        newest = self._imu_line
         out = self._imu_sample(t_us, inst, ax, ay, az, p, q, r)
         if t_us > newest and self._imu_t[inst] == t_us:  # a new instant of the time line
-            self._line_period.add(t_us)
+            self._line_instant(t_us)
         return out
 
     def _drop_held(self) -> None:
@@ -473,7 +485,9 @@ class FrameAssembler:
             sample = ImuSample(t_us, inst, v6[:3], v6[3:])
             self._imu[inst] = sample
             self._imu_vals[inst] = vals
-        self._imu_t[inst] = t_us
+        self._imu_t[inst] = t_us  # later than this instance's last: the line only advances
+        if t_us > self._imu_line:
+            self._imu_line = t_us
         self._ever_imu.add(inst)
         if inst != primary:
             if held:

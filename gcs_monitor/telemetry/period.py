@@ -41,8 +41,13 @@ class SamplePeriod:
             d, srt = self._dt_us, self._sorted
             if len(d) == PERIOD_INTERVALS:
                 old = d.popleft()
+                d.append(dt)
+                if dt == old:  # a steady stream: the sorted intervals and the median stay
+                    self._last_us = t_us
+                    return
                 del srt[bisect.bisect_left(srt, old)]
-            d.append(dt)
+            else:
+                d.append(dt)
             bisect.insort(srt, dt)
             n = len(srt)
             mid = n // 2
