@@ -89,6 +89,12 @@ from gcs_monitor.telemetry.period import SamplePeriod
 US_PER_S = 1_000_000
 SURFACES = ("aileron", "elevator", "rudder")  # SURF index k (docs/telemetry.md)
 SURFACE_KIND = "surface"  # ChannelId kind of the servo channels
+# the lever check of the warm-up (ServoTier._check_lever): relative gain mismatch that means
+# another airframe's servo model (surfaces that moved give 0-3 % on the simulator's Lu2017 and
+# demo flights; the UAV's lever is 3.6x the transport's), and the rod motion (RMS) below which a
+# surface cannot tell (a barely moving aileron gave 25 %, its sensor noise)
+LEVER_TOLERANCE = 0.2
+LEVER_MIN_RMS_M = 5.0e-3
 AXES = ("input", "output")
 IOTSEKF_NAME = "servo_iotsekf"
 RTSEKF_NAME = "servo_rtsekf"
@@ -377,6 +383,10 @@ class ServoTier:
                        ChannelId(SURFACE_KIND, k, "rod_command"))
                       for k, name in enumerate(SURFACES)]
         self._why = ""  # why the last new sample was not stepped on (restart)
+        # the lever the telemetry shows: sum(pos * rod), sum(rod^2) and the sample count per
+        # surface over the warm-up, checked against the configured rod gain (_check_lever)
+        self._lever = [[0.0, 0.0, 0] for _ in SURFACES]
+        self._misfit = ""  # why the configured servo model does not fit ("" = it fits)
 
     # -- predict ---------------------------------------------------------------------------------
     def predict(self, frame: Frame) -> ServoPrediction:
@@ -415,6 +425,11 @@ class ServoTier:
                 g.start(cmd_l[j], rod_l[j])
             return ServoPrediction(True, None, why)
         self._row_lists = rows.tolist()  # judge() and update() read the rows as floats
+        if self._fdi is None:  # still in the warm-up: the lever the data show
+            for acc, p_k, q_k in zip(self._lever, pos_l, rod_l, strict=True):
+                acc[0] += p_k * q_k
+                acc[1] += q_k * q_k
+                acc[2] += 1
         self._est_t_us = frame.t_us  # estimates made in update(), from the same rows
         return ServoPrediction(True, rows)
 
@@ -452,8 +467,11 @@ class ServoTier:
         if t - round(frame.surf_age_s * US_PER_S) < self._judge_from_us:
             return Verdict(FamilyStatus(self.name, t, False, reason="servo filters warm-up"))
         if self._fdi is None:
+            self._misfit = self._check_lever()
             self._build_fdi(period)
         assert self._fdi is not None
+        if self._misfit:
+            return Verdict(FamilyStatus(self.name, t, False, reason=self._misfit))
         verdict = Verdict(FamilyStatus(self.name, t, True))
         statuses = verdict.channels if self.ctx.statuses else None
         for fdi, row in zip(self._fdi, self._row_lists, strict=True):
@@ -461,6 +479,27 @@ class ServoTier:
             if ev:
                 verdict.events += ev
         return verdict
+
+    def _check_lever(self) -> str:
+        """Does the configured servo model fit the aircraft? SURF reports both the rod and the
+        surface position, and the lever between them is linear (delta = rod_gain * x1, the
+        model of Lu2017 sec. II with our lever): its least-squares gain over the healthy
+        warm-up, sum(delta x1) / sum(x1^2), must match ``sensors.rod_gain_radpm`` within
+        ``LEVER_TOLERANCE``. A servo model of another airframe (the default is the
+        transport's) would otherwise read the mismatch as output faults on every surface; the
+        tier does not judge and says what to set. Surfaces whose rod moved less than
+        ``LEVER_MIN_RMS_M`` (RMS) over the warm-up cannot tell and are not checked."""
+        gain = self.cfg.sensors.rod_gain_radpm
+        for name, (s_pq, s_qq, n) in zip(SURFACES, self._lever, strict=True):
+            if n == 0 or s_qq / n < LEVER_MIN_RMS_M ** 2:
+                continue
+            measured = s_pq / s_qq
+            if abs(measured / gain - 1.0) > LEVER_TOLERANCE:
+                return (f"servo model does not fit this aircraft: the {name}'s surface/rod "
+                        f"gain is {measured:.2f} rad/m in the telemetry, {gain:.2f} rad/m "
+                        f"configured (set [actuators.servo.sensors] rod_gain_radpm and "
+                        f"rod_stroke_m for this airframe)")
+        return ""
 
     def _build_fdi(self, period_s: float) -> None:
         """The surfaces' detectors with windows of the measured SURF period."""

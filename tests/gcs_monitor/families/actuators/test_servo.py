@@ -318,3 +318,19 @@ def test_whole_mavlink_path_names_a_liquid_jam() -> None:
     last = [x for x in mon.events if x.channel == e.channel][-1]
     assert case_of(last) == "liquid_jam"
     assert last.magnitude == pytest.approx(0.02, abs=2e-3)
+
+
+def test_a_servo_model_of_another_airframe_is_not_judged_and_says_why() -> None:
+    """The telemetry's lever (surface over rod position, 1.4 rad/m here) against a configured
+    one 3.6x larger (the UAV's): the tier does not judge after its warm-up and says what to set,
+    instead of reading the mismatch as output faults; the right lever judges as before."""
+    frames = simulate(duration_s=8.0)
+    wrong = ServoTierConfig(sensors=dataclasses.replace(SENS, rod_gain_radpm=5.0))
+    tier = ServoTier(wrong, FamilyContext(vehicle=1, stale_after_s=0.5))
+    verdicts = [tier.judge(fr, tier.predict(fr)) for fr in frames]
+    assert not [v for v in verdicts if v.events or v.status.judged]
+    reason = verdicts[-1].status.reason
+    assert "does not fit" in reason and "elevator" in reason and "5.00 rad/m configured" in reason
+    assert "rod_gain_radpm" in reason
+    _, events, judged = run_tier(frames)
+    assert events == [] and all(judged[round(2.5 * 50):])
