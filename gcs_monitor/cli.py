@@ -17,6 +17,7 @@ from typing import Any
 from gcs_monitor.config import ConfigError, MonitorConfig, load_config
 from gcs_monitor.console import family_line, format_event, summarise_alarms
 from gcs_monitor.demo import run_demo
+from gcs_monitor.sinks import SharedSink
 
 log = logging.getLogger("gcs_monitor")
 DEFAULT_ZENOH = "tcp/127.0.0.1:7447"
@@ -95,7 +96,7 @@ class _Outputs:
                 compid=args.mavlink_alarms_compid or COMPID_DEFAULT,
                 named_values=args.mavlink_named_values, queue_size=cfg.sinks.queue_size))
         if self.journal is not None:
-            sinks.append(_Shared(self.journal))
+            sinks.append(SharedSink(self.journal))
         return sinks
 
     def close(self) -> None:
@@ -106,21 +107,6 @@ class _Outputs:
         if self.viewer is not None:
             self.viewer.close()
 
-
-class _Shared:
-    """A sink every vehicle shares (the journal): closed by its owner, not by a vehicle."""
-
-    def __init__(self, sink: Any) -> None:
-        self.sink = sink
-
-    def publish(self, frame: Any, out: Any) -> None:
-        self.sink.publish(frame, out)
-
-    def update_health(self, health: dict[str, Any]) -> None:
-        self.sink.update_health(health)
-
-    def close(self) -> None:
-        pass
 
 
 def _add_zenoh_args(p: argparse.ArgumentParser, *, listen_default: str,

@@ -346,6 +346,17 @@ def _alfa_truth(path: Path, header: list[str], rows: list[list[str]], t0_abs: fl
     flight.truth = FailureTruth(component, kind, t_fail, t[changed], flag[changed])
 
 
+def csv_layout(first_line: str) -> str | None:
+    """The known CSV layout (``zipline``, ``onspeed``, ``alfa``) its header line names, or None."""
+    if "seconds_since_launch" in first_line:
+        return "zipline"
+    if "vnAccelFwd" in first_line:
+        return "onspeed"
+    if "field.linear_acceleration" in first_line:
+        return "alfa"
+    return None
+
+
 def detect_format(path: Path) -> str:
     if not Path(path).exists():
         raise ConvertError(f"{path}: no such file")
@@ -353,12 +364,9 @@ def detect_format(path: Path) -> str:
         return "tlog"
     with open(path, newline="") as fh:
         first = fh.readline()
-    if "seconds_since_launch" in first:
-        return "zipline"
-    if "vnAccelFwd" in first:
-        return "onspeed"
-    if "field.linear_acceleration" in first:
-        return "alfa"
+    layout = csv_layout(first)
+    if layout is not None:
+        return layout
     raise ConvertError(f"{path}: unknown format (expected a Zipline, OnSpeed or ALFA CSV, or a "
                        ".tlog)")
 

@@ -25,7 +25,7 @@ from typing import Any
 
 from gcs_monitor.convert.csvmap import csvmap_messages, flight_messages
 from gcs_monitor.convert.dataflash import dataflash_messages
-from gcs_monitor.convert.formats import READERS
+from gcs_monitor.convert.formats import READERS, csv_layout
 from gcs_monitor.convert.logbase import LogError, LogInfo, Messages, log_error
 from gcs_monitor.convert.ulog import ulog_messages
 
@@ -131,12 +131,9 @@ def detect_log_format(path: Path) -> str:
         first = text.lstrip().split("\n", 1)[0]
         if first.startswith("FMT,"):
             return "dataflash-text"
-        if "seconds_since_launch" in first:
-            return "zipline"
-        if "vnAccelFwd" in first:
-            return "onspeed"
-        if "field.linear_acceleration" in first:
-            return "alfa"
+        layout = csv_layout(first)
+        if layout is not None:
+            return layout
         sample = " ".join(text.split("\n")[:2])[:120]
         kind = "a CSV with no known header" if "," in first else "a text file"
         raise log_error(path, f"{kind} (starts {sample!r}; for a CSV give --map COLUMNS.toml)")

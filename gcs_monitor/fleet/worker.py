@@ -58,6 +58,7 @@ from gcs_monitor.link.zenoh_bus import (
     sysid_of_raw_key,
 )
 from gcs_monitor.monitor import Monitor
+from gcs_monitor.sinks import SharedSink
 from gcs_monitor.sinks.journal import AlarmJournal
 from gcs_monitor.sinks.schema import alarm_from_dict
 from gcs_monitor.sinks.zenoh_sink import ZenohSink
@@ -117,22 +118,6 @@ class _Owned:
     takeover_s: float | None = None
     frames_at_start: int = 0
 
-
-class _SharedSink:
-    """A sink shared by every vehicle of the worker (the journal): a vehicle's pipeline closing
-    must not close it."""
-
-    def __init__(self, sink: Any) -> None:
-        self.sink = sink
-
-    def publish(self, frame: Any, out: Any) -> None:
-        self.sink.publish(frame, out)
-
-    def update_health(self, health: dict[str, Any]) -> None:
-        self.sink.update_health(health)
-
-    def close(self) -> None:
-        pass
 
 
 class Worker:
@@ -464,7 +449,7 @@ class Worker:
         sinks: list[Any] = [ZenohSink(sysid, bus=self.bus, monitor=self.wid,
                                       estimate_rate_hz=self.opts.estimate_rate_hz)]
         if self.journal is not None:
-            sinks.append(_SharedSink(self.journal))
+            sinks.append(SharedSink(self.journal))
         if self.extra_sinks is not None:
             sinks += list(self.extra_sinks(sysid))
         return sinks

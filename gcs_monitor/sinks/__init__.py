@@ -33,4 +33,21 @@ class Sink(Protocol):
         ...
 
 
-__all__ = ["Sink"]
+class SharedSink:
+    """A sink every vehicle of a monitor shares (the journal): a vehicle's pipeline closing
+    does not close it; its owner does."""
+
+    def __init__(self, sink: Sink) -> None:
+        self.sink = sink
+
+    def publish(self, frame: Frame, out: StepOutput) -> None:
+        self.sink.publish(frame, out)
+
+    def update_health(self, health: dict[str, Any]) -> None:
+        self.sink.update_health(health)
+
+    def close(self) -> None:
+        pass
+
+
+__all__ = ["SharedSink", "Sink"]
