@@ -13,8 +13,18 @@ fault-free residual floor. From flights known to be fault-free this derives, in 
 2. **the thresholds** by replaying each flight with that noise model and detection switched off
    (every J_th raised out of reach, so nothing is isolated and the residuals stay those of a
    healthy vehicle): ``J_th = margin x`` the largest residual RMS J of any flight (Wan2018 sec.
-   VI-B's rule: zero false alarms on the fault-free runs), per redundant set and per IMU
-   estimator and sensor kind.
+   VI-B's rule: zero false alarms on the fault-free runs), per redundant set, per IMU
+   estimator and sensor kind, and for the yaw-rate family's reconstructed gyro fault.
+
+Between the two passes, when the flights carry what it needs (body rates, attitude, sideslip,
+surface positions or commands, airspeed), the yaw-rate family's lateral-directional LPV model is
+identified from them (Chen2020 eq. 59 by equation error,
+:func:`~gcs_monitor.models.lateral.identify_lateral_model`) and its observer designed on it
+(Chen2020 sec. III LMIs, :func:`~gcs_monitor.families.yaw_rate.design.design_observer`); the
+design is written as JSON and the second pass already runs on it. A flight at one speed gives a
+constant model valid only near the speeds flown: the family judges only inside that range
+(``[yaw_rate.observer] eas_margin``). When an input is missing, the family keeps its shipped
+design and the calibration says which input was missing.
 
 It prints, per flight, the largest J against the new J_th (the margin each flight keeps) and
 writes a TOML file with only what it changed, which ``replay`` and ``live`` accept
@@ -25,6 +35,7 @@ writes a TOML file with only what it changed, which ``replay`` and ``live`` acce
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
@@ -35,14 +46,18 @@ import numpy as np
 
 from gcs_monitor.config import MonitorConfig
 from gcs_monitor.config.loader import config_tables, toml_value
+from gcs_monitor.families.yaw_rate.design import design_observer
 from gcs_monitor.fdi.records import StepOutput
 from gcs_monitor.link.logs import open_log
+from gcs_monitor.models.lateral import LateralRecorder, LpvFitError, identify_lateral_model
 from gcs_monitor.monitor import Monitor
 from gcs_monitor.telemetry.frame import Frame
 
 MAD_SIGMA = 0.6745  # MAD of a Gaussian / its sigma
 OUT_OF_REACH = 1.0e9  # J_th that nothing reaches (detection off while observing)
 IMU_SETS = ("ts", "hosm")
+IMU_ESTIMATORS = {"imu_ts": "ts", "imu_ts_as": "ts", "imu_hosm": "hosm"}  # estimator -> section
+YAW_RATE_ESTIMATOR = "yaw_rate_smo"
 
 
 @dataclass
@@ -66,6 +81,44 @@ class FlightStats:
     j_max: dict[str, float] = field(default_factory=dict)  # key -> largest J (SI)
 
 
+@dataclass(frozen=True)
+class YawRateModel:
+    """The yaw-rate family's lateral model identified from the flights, or why there is none.
+
+    design_path : the written design (JSON), None when the family keeps its shipped design
+    fit : the identification's fit error (derivative NRMSE per state), None when not identified
+    eas_range_mps : the equivalent airspeeds the model was identified on (m/s)
+    constant : the speeds flown spanned too little to fit the speed terms (A_1 = A_2 = 0)
+    gamma : L2-gain bound of each sensor's observer (Chen2020 sec. IV condition)
+    reason : why not identified (the missing input, too few samples, the LMI failing)
+    """
+
+    design_path: Path | None = None
+    fit: LpvFitError | None = None
+    eas_range_mps: tuple[float, float] | None = None
+    constant: bool = False
+    gamma: dict[str, float] = field(default_factory=dict)
+    reason: str = ""
+
+    def summary(self, shipped: str) -> list[str]:
+        """What ``calibrate`` prints about the yaw-rate family (``shipped``: the design kept
+        when none was identified)."""
+        if self.design_path is None or self.fit is None or self.eas_range_mps is None:
+            return [f"yaw_rate: lateral model NOT identified: {self.reason}; the family keeps "
+                    f"its shipped design {shipped!r}"]
+        lo, hi = self.eas_range_mps
+        nr = ", ".join(f"{k} {v:.3g}" for k, v in zip(("phi", "beta", "p", "r"), self.fit.nrmse,
+                                                         strict=True))
+        valid = (f"flown at one speed (EAS {lo:.1f}-{hi:.1f} m/s): a constant model, valid only "
+                 f"near that speed" if self.constant else
+                 f"scheduled on EAS over {lo:.1f}-{hi:.1f} m/s")
+        gam = ", ".join(f"{k} {v:.4g}" for k, v in sorted(self.gamma.items()))
+        return [f"yaw_rate: lateral model identified from {self.fit.n_points} samples, {valid}; "
+                f"the family judges only inside that range",
+                f"yaw_rate: fit error (derivative NRMSE): {nr}",
+                f"yaw_rate: observer L2-gain bounds: {gam}; design -> {self.design_path}"]
+
+
 @dataclass
 class Calibration:
     """The calibrated configuration and how it was reached."""
@@ -75,6 +128,7 @@ class Calibration:
     thresholds: dict[str, float]  # J_th per key, SI
     flights: list[FlightStats]
     margin: float
+    yaw_rate: YawRateModel = field(default_factory=YawRateModel)
 
 
 def flight_chunks(path: Path) -> Iterator[tuple[bytes, float]]:
@@ -96,9 +150,11 @@ def _mad_sigma(parts: Sequence[np.ndarray], scale: float) -> float:
 
 
 class _NoiseRecorder:
-    """Collects the primary IMU, GPS velocity, attitude and air data of one flight."""
+    """Collects the primary IMU, GPS velocity, attitude and air data of one flight, and the
+    lateral signals of every flight (``lateral``, shared)."""
 
-    def __init__(self) -> None:
+    def __init__(self, lateral: LateralRecorder) -> None:
+        self.lateral = lateral
         self.imu: list[np.ndarray] = []
         self.att: list[np.ndarray] = []
         self.gps: list[np.ndarray] = []
@@ -106,6 +162,7 @@ class _NoiseRecorder:
         self.cas: list[np.ndarray] = []
 
     def __call__(self, sysid: int, frame: Frame, out: StepOutput) -> None:
+        self.lateral.add(frame)
         imu = frame.primary_imu
         if imu is not None and imu.t_us == frame.t_us:
             self.imu.append(np.concatenate([imu.acc_frd_mps2, imu.omega_frd_radps]))
@@ -192,8 +249,10 @@ def _observing(cfg: MonitorConfig) -> MonitorConfig:
     fdi = dataclasses.replace(
         air.fdi, aoa=dataclasses.replace(air.fdi.aoa, threshold=OUT_OF_REACH),
         cas=dataclasses.replace(air.fdi.cas, threshold=OUT_OF_REACH))
+    yaw = cfg.family("yaw_rate")
     return (cfg.with_family("imu", dataclasses.replace(imu, **sec))
-            .with_family("airdata", dataclasses.replace(air, fdi=fdi)))
+            .with_family("airdata", dataclasses.replace(air, fdi=fdi))
+            .with_family("yaw_rate", fdi=dataclasses.replace(yaw.fdi, threshold=OUT_OF_REACH)))
 
 
 class _JRecorder:
@@ -211,15 +270,55 @@ class _JRecorder:
             for j in s.rms:
                 self._put(f"airdata.{s.name}", j)
         for c in out.channels:
-            if c.rms > 0.0:  # 0 until the channel is judged (estimator warm-up)
-                est = "ts" if c.estimator.startswith("imu_ts") else "hosm"
-                self._put(f"imu.{est}.{c.channel.kind}", c.rms)
+            if c.rms <= 0.0:  # 0 until the channel is judged (estimator warm-up)
+                continue
+            if c.estimator == YAW_RATE_ESTIMATOR:
+                self._put(f"yaw_rate.{c.channel.axis}", c.rms)
+            elif c.estimator in IMU_ESTIMATORS:
+                self._put(f"imu.{IMU_ESTIMATORS[c.estimator]}.{c.channel.kind}", c.rms)
+
+
+def identify_yaw_rate(lateral: LateralRecorder, design_path: Path, *,
+                      command: str = "") -> YawRateModel:
+    """The yaw-rate family's lateral model and observer from the recorded flights, written to
+    ``design_path``; or, when the flights cannot give one, the reason (nothing written).
+
+    The model is Chen2020 eq. 59 by equation error
+    (:func:`~gcs_monitor.models.lateral.identify_lateral_model`), the observer gains those of
+    Chen2020 sec. III-IV (:func:`~gcs_monitor.families.yaw_rate.design.design_observer`, which
+    needs cvxpy: the ``design`` extra).
+    """
+    missing = lateral.missing()
+    if lateral.frames == 0:
+        return YawRateModel(reason="the flights gave no telemetry frame")
+    if missing:
+        return YawRateModel(reason="the flights carry no " + ", no ".join(missing))
+    try:
+        model, fit = identify_lateral_model(lateral.samples(), source=command)
+    except ValueError as exc:  # every input sent, but never together or too briefly
+        return YawRateModel(reason=str(exc))
+    try:
+        design = design_observer(model, fit=fit, command=command)
+    except ImportError as exc:
+        return YawRateModel(fit=fit, reason=f"the LMI design needs cvxpy (pip install "
+                            f"'gcs-monitor[design]'): {exc}")
+    except RuntimeError as exc:  # the LMIs infeasible on the identified model
+        return YawRateModel(fit=fit, reason=str(exc))
+    design_path.parent.mkdir(parents=True, exist_ok=True)
+    design_path.write_text(json.dumps(design.to_dict(), indent=1) + "\n")
+    constant = not (np.any(model.A[1:]) or np.any(model.B[1:]))
+    return YawRateModel(design_path, fit, model.eas_range_mps, constant,
+                        {k: float(v["gamma"]) for k, v in design.meta["lmi"].items()})
 
 
 def calibrate(flights: Sequence[Path], base: MonitorConfig | None = None, *,
-              margin: float = 1.5,
+              margin: float = 1.5, design_path: Path | None = None,
               progress: Callable[[str], None] = lambda s: None) -> Calibration:
-    """Noise model and thresholds from fault-free ``flights`` (module docstring)."""
+    """Noise model and thresholds from fault-free ``flights`` (module docstring).
+
+    ``design_path``: where to write the yaw-rate family's identified design (JSON); None: the
+    lateral model is not identified and the family keeps the design of ``base``.
+    """
     if not flights:
         raise ValueError("calibrate needs at least one flight")
     if not margin > 1.0:
@@ -227,9 +326,10 @@ def calibrate(flights: Sequence[Path], base: MonitorConfig | None = None, *,
     cfg = base if base is not None else MonitorConfig()
     samples = _Noise()
     stats: list[FlightStats] = []
+    lateral = LateralRecorder()
     for i, path in enumerate(flights):
         progress(f"[1/2] noise {i + 1}/{len(flights)}: {path.name}")
-        rec = _NoiseRecorder()
+        rec = _NoiseRecorder(lateral)
         dur = _replay(path, _observing(cfg), rec)
         rec.into(samples)
         stats.append(FlightStats(path.name, dur))
@@ -242,6 +342,15 @@ def calibrate(flights: Sequence[Path], base: MonitorConfig | None = None, *,
         "cas": _mad_sigma(samples.cas_pair, math.sqrt(2.0)),
     }
     noisy = with_noise(cfg, noise)
+    yaw = YawRateModel(reason="no design path given")
+    if not cfg.family("yaw_rate").enabled:
+        yaw = YawRateModel(reason="the yaw-rate family is disabled in the configuration")
+    elif design_path is not None:
+        progress("[1/2] yaw-rate lateral model and observer design")
+        yaw = identify_yaw_rate(lateral, design_path, command="gcs-monitor calibrate "
+                                + " ".join(p.name for p in flights))
+        if yaw.design_path is not None:
+            noisy = noisy.with_family("yaw_rate", design=str(yaw.design_path))
     observe = _observing(noisy)
     for i, path in enumerate(flights):
         progress(f"[2/2] residuals {i + 1}/{len(flights)}: {path.name}")
@@ -253,7 +362,8 @@ def calibrate(flights: Sequence[Path], base: MonitorConfig | None = None, *,
         for k, v in st.j_max.items():
             j_all[k] = max(j_all.get(k, 0.0), v)
     thresholds = {k: margin * v for k, v in j_all.items() if v > 0.0}
-    return Calibration(_with_thresholds(noisy, thresholds), noise, thresholds, stats, margin)
+    return Calibration(_with_thresholds(noisy, thresholds), noise, thresholds, stats, margin,
+                       yaw)
 
 
 def _with_thresholds(cfg: MonitorConfig, th: dict[str, float]) -> MonitorConfig:
@@ -274,8 +384,13 @@ def _with_thresholds(cfg: MonitorConfig, th: dict[str, float]) -> MonitorConfig:
         v = th.get(f"airdata.{s}")
         if v is not None:
             fdi = dataclasses.replace(fdi, **{s: dataclasses.replace(getattr(fdi, s), threshold=v)})
-    return (cfg.with_family("imu", dataclasses.replace(imu, **sec))
-            .with_family("airdata", dataclasses.replace(air, fdi=fdi)))
+    cfg = (cfg.with_family("imu", dataclasses.replace(imu, **sec))
+           .with_family("airdata", dataclasses.replace(air, fdi=fdi)))
+    yaw = cfg.family("yaw_rate")
+    v = th.get(f"yaw_rate.{yaw.sensor}")
+    if v is not None:
+        cfg = cfg.with_family("yaw_rate", fdi=dataclasses.replace(yaw.fdi, threshold=v))
+    return cfg
 
 
 def calibration_toml(cal: Calibration, base: MonitorConfig, flights: Sequence[Path]) -> str:

@@ -725,10 +725,15 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         print(f"gcs-monitor calibrate: no such file: {', '.join(map(str, missing))}",
               file=sys.stderr)
         return 2
-    cal = calibrate(args.flights, base, margin=args.margin,
+    # the yaw-rate design next to the TOML, referenced by its absolute path (replay and live
+    # may run from another directory)
+    design = args.out.parent.resolve() / f"{args.out.stem}.yaw_rate.json"
+    cal = calibrate(args.flights, base, margin=args.margin, design_path=design,
                     progress=lambda m: print(m, file=sys.stderr, flush=True))
     print("noise model (1 sigma, SI): " + ", ".join(
         f"{k} {v:.3g}" for k, v in cal.noise.items() if math.isfinite(v)))
+    for line in cal.yaw_rate.summary(base.family("yaw_rate").design):
+        print(line)
     print("thresholds J_th (SI): " + ", ".join(f"{k} {v:.4g}" for k, v in
                                                sorted(cal.thresholds.items())))
     print("\nlargest J of each flight as a share of the new J_th (1 / margin at the worst):")
@@ -881,11 +886,13 @@ def build_parser() -> argparse.ArgumentParser:
                    help="print the configuration reference (docs/configuration.md)")
     s.add_argument("--no-comments", action="store_true", help="TOML without comments")
     s.set_defaults(func=cmd_config)
-    s = sub.add_parser("calibrate", help="noise model and thresholds from your own fault-free "
-                                         "flights; writes a config replay and live accept")
+    s = sub.add_parser("calibrate", help="noise model, thresholds and the yaw-rate family's "
+                                         "lateral model from your own fault-free flights; "
+                                         "writes a config replay and live accept")
     s.add_argument("flights", nargs="+", type=Path, help=".tlog files or CSV layouts that "
                    "`convert` reads, known to be fault-free")
-    s.add_argument("--out", type=Path, default=Path("airframe.toml"), help="config to write")
+    s.add_argument("--out", type=Path, default=Path("airframe.toml"),
+                   help="config to write; the yaw-rate design goes next to it (OUT.yaw_rate.json)")
     s.add_argument("--config", type=Path, help="start from this config instead of the defaults")
     s.add_argument("--margin", type=float, default=1.5,
                    help="J_th = margin x the largest fault-free residual RMS (default 1.5)")

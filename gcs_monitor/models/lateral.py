@@ -27,6 +27,7 @@ Pure functions and a frozen dataclass; numpy and scipy only.
 from __future__ import annotations
 
 import math
+from array import array
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -212,33 +213,70 @@ class LateralSamples:
     eas_mps: Vec
 
 
-def lateral_samples(frames: Iterable[Any], *, period_s: float = 0.02,
-                    stale_s: float = 0.5) -> LateralSamples:
-    """The lateral signals of a flight's Frames, resampled every ``period_s`` (linear
-    interpolation of each signal on its own valid instants; a Frame lacking an input leaves a
-    gap, and samples of a gap longer than ``stale_s`` are dropped). Frames of several flights
-    may follow one another: where the time goes back a new flight starts.
+# what identification needs, in the order a Frame is checked (the first one absent is named)
+LATERAL_INPUTS = ("body rates (IMU)", "attitude (ATTITUDE)", "sideslip (AOA_SSA)",
+                  "surface positions or commands (SURF)", "airspeed (AIRSPEED)")
+
+
+class LateralRecorder:
+    """The lateral signals of a flight's Frames, one row per Frame that carries them all, and
+    per input how many Frames carried it (so that a flight lacking one can say which).
 
     Uses ``euler_rad[0]``, ``ssa_rad``, the primary IMU's p and r, ``surf_pos_rad`` (aileron 0,
     rudder 2; ``surf_cmd_rad`` when positions are absent), the median valid CAS instance and
     ``baro_alt_m`` for the equivalent airspeed.
     """
-    cols: list[list[float]] = [[] for _ in range(8)]  # t, phi, beta, p, r, da, dr, eas
-    for f in frames:
+
+    def __init__(self) -> None:
+        # t, phi, beta, p, r, da, dr, eas; float arrays: an hour at 100 Hz is 23 MB
+        self.cols: list[array[float]] = [array("d") for _ in range(8)]
+        self.seen = dict.fromkeys(LATERAL_INPUTS, 0)
+        self.frames = 0
+
+    def add(self, f: Any) -> None:
+        """Record one Frame."""
+        self.frames += 1
         imu = f.primary_imu
         surf = f.surf_pos_rad if f.surf_pos_rad is not None else f.surf_cmd_rad
         cas = [c for c in np.asarray(f.cas_mps).tolist() if math.isfinite(c)]
-        if (imu is None or f.euler_rad is None or surf is None or not cas
-                or not math.isfinite(f.ssa_rad)):
-            continue
+        have = (imu is not None, f.euler_rad is not None, math.isfinite(f.ssa_rad),
+                surf is not None, bool(cas))
+        for name, ok in zip(LATERAL_INPUTS, have, strict=True):
+            self.seen[name] += ok
+        if not all(have):
+            return
         alt = f.baro_alt_m if math.isfinite(f.baro_alt_m) else 0.0
         tas = tas_from_cas(float(np.median(cas)), alt)
         row = (f.t_us * 1e-6, float(f.euler_rad[0]), float(f.ssa_rad),
                float(imu.omega_frd_radps[0]), float(imu.omega_frd_radps[2]),
                float(surf[0]), float(surf[2]), eas_from_tas(tas, alt))
-        for c, v in zip(cols, row, strict=True):
+        for c, v in zip(self.cols, row, strict=True):
             c.append(v)
-    t = np.asarray(cols[0])
+
+    def missing(self) -> list[str]:
+        """The inputs no recorded Frame carried (empty when each was there at least once)."""
+        return [k for k, n in self.seen.items() if n == 0]
+
+    def samples(self, *, period_s: float = 0.02, stale_s: float = 0.5) -> LateralSamples:
+        """The recorded rows resampled every ``period_s`` (see :func:`lateral_samples`)."""
+        return _resample([np.asarray(c) for c in self.cols], period_s, stale_s)
+
+
+def lateral_samples(frames: Iterable[Any], *, period_s: float = 0.02,
+                    stale_s: float = 0.5) -> LateralSamples:
+    """The lateral signals of a flight's Frames (:class:`LateralRecorder`), resampled every
+    ``period_s`` (linear interpolation of each signal on its own valid instants; a Frame lacking
+    an input leaves a gap, and samples of a gap longer than ``stale_s`` are dropped). Frames of
+    several flights may follow one another: where the time goes back a new flight starts.
+    """
+    rec = LateralRecorder()
+    for f in frames:
+        rec.add(f)
+    return rec.samples(period_s=period_s, stale_s=stale_s)
+
+
+def _resample(cols: list[np.ndarray], period_s: float, stale_s: float) -> LateralSamples:
+    t = cols[0]
     # several flights (or a reboot): each restarts its clock; lay them end to end with a gap
     # longer than ``stale_s`` so that no interpolation or derivative crosses from one to the next
     back = np.flatnonzero(np.diff(t) <= 0.0) + 1
@@ -254,7 +292,7 @@ def lateral_samples(frames: Iterable[Any], *, period_s: float = 0.02,
     prev = t[np.clip(idx - 1, 0, t.size - 1)]
     nxt = t[np.clip(idx, 0, t.size - 1)]
     ok = (nxt - prev) <= stale_s
-    data = [np.interp(grid, t, np.asarray(c)) for c in cols[1:]]
+    data = [np.interp(grid, t, c) for c in cols[1:]]
     return LateralSamples(grid[ok], np.column_stack(data[:4])[ok],
                           np.column_stack(data[4:6])[ok], data[6][ok])
 

@@ -1,11 +1,16 @@
 """gcs-monitor calibrate on simulated fault-free flights: the noise model recovers the simulated
-sensor noise, J_th is the margin times the largest fault-free J, and the written configuration
-loads and keeps the flights silent."""
+sensor noise, J_th is the margin times the largest fault-free J, the yaw-rate family's lateral
+model is identified (or the missing input named), and the written configuration loads and keeps
+the flights silent."""
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import io
+import json
 import math
+import re
 from pathlib import Path
 
 import pytest
@@ -14,6 +19,7 @@ from gcs_monitor.calibrate import calibrate, calibration_toml
 from gcs_monitor.cli import main
 from gcs_monitor.config import MonitorConfig, load_config
 from gcs_monitor.core.units import DEG2RAD
+from gcs_monitor.families.yaw_rate.design import load_design
 from gcs_monitor.fdi.events import AlarmKind
 from gcs_monitor.link.transports import TlogSource
 from gcs_monitor.monitor import Monitor
@@ -52,10 +58,19 @@ def test_noise_and_thresholds(flights: list[Path]) -> None:
     assert air.aoa.threshold == cal.thresholds["airdata.aoa"]
 
 
+@pytest.fixture(scope="module")
+def calibrated(flights: list[Path], tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
+    """``gcs-monitor calibrate`` on both flights: the written TOML and what it printed."""
+    out = tmp_path_factory.mktemp("cal") / "airframe.toml"
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        assert main(["calibrate", *map(str, flights), "--out", str(out)]) == 0
+    return out, buf.getvalue()
+
+
 def test_cli_writes_a_config_that_keeps_the_flights_silent(flights: list[Path],
-                                                            tmp_path: Path) -> None:
-    out = tmp_path / "airframe.toml"
-    assert main(["calibrate", *map(str, flights), "--out", str(out)]) == 0
+                                                            calibrated: tuple[Path, str]) -> None:
+    out, _ = calibrated
     text = out.read_text()
     assert "[airdata.fdi.aoa]" in text and "threshold_deg" in text
     cfg = load_config(out)
@@ -67,6 +82,68 @@ def test_cli_writes_a_config_that_keeps_the_flights_silent(flights: list[Path],
         mon.finish()
         assert [e for e in mon.events if e.kind in (AlarmKind.SENSOR_FAULT,
                                                      AlarmKind.SET_LOST)] == []
+
+
+def test_cli_identifies_the_yaw_rate_model_and_replay_judges_with_it(
+        flights: list[Path], calibrated: tuple[Path, str]) -> None:
+    out, printed = calibrated
+    design = out.parent / "airframe.yaw_rate.json"
+    cfg = load_config(out)
+    assert cfg.family("yaw_rate").design == str(design.resolve())
+    d = load_design(cfg.family("yaw_rate").design)
+    # the demo flies one speed (250 kt at 3000 m): a constant model, said to be valid only there
+    lo, hi = d.model.eas_range_mps
+    assert 100.0 < lo < hi < 120.0  # m/s: EAS of 250 kt TAS at 3000 m +- the turbulence
+    assert not d.model.A[1:].any() and not d.model.B[1:].any()
+    assert "a constant model, valid only near that speed" in printed
+    assert f"EAS {lo:.1f}-{hi:.1f} m/s" in printed
+    # the fit error printed is the design's
+    m = re.search(r"fit error \(derivative NRMSE\): phi (\S+), beta (\S+), p (\S+), r (\S+)",
+                  printed)
+    assert m is not None
+    nrmse = json.loads(design.read_text())["meta"]["fit"]["nrmse"]
+    assert [float(v) for v in m.groups()] == pytest.approx(nrmse, rel=1e-2)  # 3 digits printed
+    # the yaw-rate J_th comes from the second pass on the new design
+    th = cfg.family("yaw_rate").fdi.threshold
+    assert th != MonitorConfig().family("yaw_rate").fdi.threshold
+    judged = []
+    mon = Monitor(cfg, on_step=lambda sysid, frame, step: judged.extend(
+        f.judged for f in step.families if f.family == "yaw_rate" and f.sample))
+    for data, wall in TlogSource(flights[0]):
+        mon.feed(data, wall)
+    mon.finish()
+    # judged after the 2 s warm-up over the rest of the 20 s flight
+    assert 0.8 < sum(judged) / len(judged) < 1.0
+    assert not [e for e in mon.events if e.estimator == "yaw_rate_smo"]
+
+
+def _without_message(src: Path, dst: Path, msg_id: int) -> Path:
+    """A copy of the .tlog ``src`` (8-byte timestamp + unsigned MAVLink 2 packet per record)
+    without the packets of message ``msg_id``."""
+    data = src.read_bytes()
+    keep = []
+    i = 0
+    while i < len(data):
+        assert data[i + 8] == 0xFD  # MAVLink 2 start byte
+        n = 8 + 12 + data[i + 9] + (13 if data[i + 10] & 1 else 0)
+        if int.from_bytes(data[i + 15:i + 18], "little") != msg_id:
+            keep.append(data[i:i + n])
+        i += n
+    dst.write_bytes(b"".join(keep))
+    return dst
+
+
+def test_cli_names_the_missing_input_and_keeps_the_shipped_design(flights: list[Path],
+                                                                  tmp_path: Path) -> None:
+    flight = _without_message(flights[0], tmp_path / "no_ssa.tlog", 11020)  # AOA_SSA
+    out = tmp_path / "airframe.toml"
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        assert main(["calibrate", str(flight), "--out", str(out)]) == 0
+    assert ("yaw_rate: lateral model NOT identified: the flights carry no sideslip (AOA_SSA); "
+            "the family keeps its shipped design 'transport'") in buf.getvalue()
+    assert not (tmp_path / "airframe.yaw_rate.json").exists()
+    assert load_config(out).family("yaw_rate").design == "transport"
 
 
 def test_calibration_toml_lists_only_changes(flights: list[Path]) -> None:
