@@ -11,22 +11,28 @@
 * ``chen2020_false_alarms`` -- fault-free S-turns, coordinated turns and doublets in turbulence
   up to sigma 3.54 m/s: the worst fault-free J of the reconstructed fault (the threshold's
   calibration) and the false alarms of every default family;
-* ``chen2020_roll_rate`` -- the same observer class on the roll-rate gyro.
+* ``chen2020_roll_rate`` -- the same observer class on the roll-rate gyro;
+* ``chen2020_uav`` -- the simulator's nominal default airframe (the UAV) under the defaults
+  (the transport's design: not judged, and why) and under a configuration ``calibrate`` made
+  from clean UAV flights (its identified lateral model and its own J_th).
 
 Commands and measured tables: docs/results.md, "Yaw-rate family: Chen2020".
 """
 
 from __future__ import annotations
 
+import collections
 import dataclasses
 import json
 import math
+import re
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from gcs_monitor.calibrate import calibrate, calibration_toml
 from gcs_monitor.config import MonitorConfig
 from gcs_monitor.core.atmosphere import tas_from_cas
 from gcs_monitor.core.types import ChannelId
@@ -48,7 +54,7 @@ from gcs_monitor.monitor import Monitor
 from gcs_monitor.telemetry.frame import Frame, ImuSample
 from sim_vehicle.dynamics.linearise import lateral_lti
 from sim_vehicle.faults.profiles import FaultInjector, FaultSpec
-from sim_vehicle.run import RunState, iter_run, make_simulation
+from sim_vehicle.run import RunState, iter_run, make_simulation, run_scenario
 from sim_vehicle.scenario import Scenario, load_scenario
 from sim_vehicle.sensors.noise import LU2016
 
@@ -69,6 +75,10 @@ class OpenLoopRun:
     f_true: np.ndarray
     events: list[AlarmEvent]
     j_max: float  # worst J of the yaw-rate channel while judged
+    judged: int = 0  # Frames with a sample of the family's stream that it judged
+    samples: int = 0  # Frames with a sample of the family's stream
+    reasons: collections.Counter[str] = dataclasses.field(
+        default_factory=collections.Counter)  # why not judged, per such Frame
 
     def truth_at(self, t: np.ndarray) -> np.ndarray:
         if self.f_true_t.size == 0:
@@ -83,9 +93,19 @@ class _Capture:
         self.rows: list[tuple[float, float, float]] = []
         self.events: list[AlarmEvent] = []
         self.j_max = 0.0
+        self.judged = 0
+        self.samples = 0
+        self.reasons: collections.Counter[str] = collections.Counter()
 
     def __call__(self, sysid: int, frame: Any, step: Any) -> None:
         self.events += step.events
+        for st in step.families:
+            if st.family == "yaw_rate" and st.sample:
+                self.samples += 1
+                self.judged += st.judged
+                if not st.judged:
+                    # the speed varies within one reason; the first words say which it is
+                    self.reasons[re.sub(r"EAS \d+ m/s", "EAS", st.reason)] += 1
         for e in step.estimates:
             if e.name == EST and e.available and e.t_us == frame.t_us:
                 (v,) = e.faults.values()
@@ -112,7 +132,8 @@ def open_loop_run(sc: Scenario, cfg: MonitorConfig | None = None, *,
     log = rs.suite.fault_log.get(f"imu0.gyro.{sensor}") if rs.suite is not None else None
     ft = np.array(log[0]) if log else np.zeros(0)
     fv = np.array(log[1]) if log else np.zeros(0)
-    return OpenLoopRun(sc.name, a[:, 0], a[:, 1], a[:, 2], ft, fv, cap.events, cap.j_max)
+    return OpenLoopRun(sc.name, a[:, 0], a[:, 1], a[:, 2], ft, fv, cap.events, cap.j_max,
+                       cap.judged, cap.samples, cap.reasons)
 
 
 def sensor_alarms(events: list[AlarmEvent]) -> list[AlarmEvent]:
@@ -605,9 +626,89 @@ def _tuning_frames(sigma: float) -> list[Any]:
     return cap.frames
 
 
+# clean UAV flights for calibrate: the S-turn (roll, yaw rate) and a rudder doublet (sideslip)
+UAV_CLEAN_FLIGHTS = (("s_turn", "aileron", 301), ("doublet_3211", "rudder", 302))
+UAV_CLEAN_S = 90.0
+
+
+def _uav_clean_scenario(manoeuvre: str, surface: str, seed: int) -> Scenario:
+    sc = case("chen2020_fault_free", airframe="uav", seed=seed)
+    return dataclasses.replace(
+        sc, name=f"uav_clean_{manoeuvre}_{surface}_seed{seed}", duration_s=UAV_CLEAN_S,
+        manoeuvre=dataclasses.replace(sc.manoeuvre, kind=manoeuvre, surface=surface,
+                                      amplitude=0.0 if manoeuvre != "s_turn"
+                                      else sc.manoeuvre.amplitude))
+
+
+def _uav_job(job: tuple[str, str, MonitorConfig]) -> tuple[str, OpenLoopRun]:
+    label, name, cfg = job
+    return label, open_loop_run(case(name, airframe="uav"), cfg)
+
+
+def chen2020_uav(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
+    """The Chen2020 cases flown by the simulator's nominal default airframe (the UAV, 25 m/s),
+    monitored (faults only in the telemetry, every default family) under three configurations:
+    the defaults (the transport's design, whose model holds at 79-172 m/s EAS); the shipped
+    ``uav`` design at the default (transport's) J_th, fault-free only; and what ``gcs-monitor
+    calibrate`` makes of clean UAV flights (``UAV_CLEAN_FLIGHTS``: the identified lateral model,
+    its observer and its own J_th). Per run: the share of the family's samples it judged, why
+    not, the worst J against J_th and the alarms. ``quick``: calibrate on the S-turn only, the
+    fault-free and fast-drift cases only."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    clean = UAV_CLEAN_FLIGHTS[:1] if quick else UAV_CLEAN_FLIGHTS
+    flights = []
+    for f in clean:
+        res = run_scenario(_uav_clean_scenario(*f), out_dir / "uav_clean", progress=False)
+        assert res.tlog_path is not None
+        flights.append(res.tlog_path)
+    base = MonitorConfig()
+    cal = calibrate(flights, base, design_path=out_dir / "uav_calibrated.yaw_rate.json")
+    (out_dir / "uav_calibrated.toml").write_text(calibration_toml(cal, base, flights))
+    cases = (CASES[0], CASES[2]) if quick else CASES
+    configs = {"defaults (transport design)": base, "calibrated (uav_calibrated.toml)": cal.config}
+    work = [(label, c, cfg) for label, cfg in configs.items() for c in cases]
+    work.insert(len(cases), ("`uav` design, default J_th", CASES[0], monitor_config("r", "uav")))
+    ch = ChannelId("gyro", 0, "r")
+    rows = []
+    for label, r in run_parallel(_uav_job, work, jobs, desc="chen2020_uav"):
+        cfg = next(w[2] for w in work if w[0] == label)
+        th = cfg.family("yaw_rate").fdi.threshold
+        alarms = sensor_alarms(r.events)
+        # the observer's own confirmation: RAISED, or UPDATED when another estimator (imu_ts)
+        # raised the channel's alarm first (one alarm per channel)
+        mine = [e for e in r.events if e.channel == ch and e.estimator == EST
+                and e.kind is AlarmKind.SENSOR_FAULT
+                and e.state in (AlarmState.RAISED, AlarmState.UPDATED)]
+        faulty = r.f_true_t.size > 0
+        if not mine:
+            alarm = "none" if faulty else "-"
+        elif faulty:
+            alarm = f"{mine[0].t_us * 1e-6 - FAULT_T0_S:.2f} s, {mine[0].fault_type.value}"
+        else:
+            alarm = f"FALSE, at {mine[0].t_us * 1e-6:.1f} s"
+        n = max(r.samples, 1)
+        why = "; ".join(f"{k} ({100.0 * c / n:.0f} %)" for k, c in r.reasons.most_common()
+                        if c >= 0.005 * n)
+        others = "; ".join(sorted({f"{e.channel} ({e.estimator})" for e in alarms
+                                   if e.estimator != EST})) or "none"
+        rows.append([label, r.name.replace("chen2020_", ""),
+                     f"{100.0 * r.judged / n:.0f} %", why or "-",
+                     f"{r.j_max * RAD2DEG:.3g} / {th * RAD2DEG:.3g}", alarm, others])
+    header = ["configuration", "case", "yaw_rate judged", "not judged because (share of samples)",
+              "max J / J_th [deg/s]", "yaw_rate_smo alarm: delay, type",
+              "other estimators' sensor-fault alarms"]
+    write_csv(out_dir / "chen2020_uav.csv", header, rows)
+    return ("\n".join(cal.yaw_rate.summary(base.family("yaw_rate").design))
+            + f"\n\ncalibrated on {len(flights)} clean UAV flight(s) of {UAV_CLEAN_S:g} s "
+            f"({', '.join(p.name for p in flights)}); yaw-rate J_th "
+            f"{cal.config.family('yaw_rate').fdi.threshold * RAD2DEG:.3g} deg/s\n\n"
+            + md_table(header, rows) + "\n")
+
+
 def experiments() -> dict[str, Callable[[Path, int, bool], str]]:
     return {"chen2020_design": chen2020_design, "chen2020_ftc": chen2020_ftc,
             "chen2020_open_loop": chen2020_open_loop,
             "chen2020_false_alarms": chen2020_false_alarms,
             "chen2020_roll_rate": chen2020_roll_rate, "chen2020_identify": chen2020_identify,
-            "chen2020_tuning": chen2020_tuning}
+            "chen2020_tuning": chen2020_tuning, "chen2020_uav": chen2020_uav}

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -94,6 +95,9 @@ class YawRateEstimator:
         lo, hi = m.eas_range_mps
         mg = cfg.observer.eas_margin
         self.eas_range = (lo * (1.0 - mg), hi * (1.0 + mg))
+        # names the design in the coverage reason: another aircraft's speeds say which airframe
+        # the model belongs to
+        self.label = Path(cfg.design).name if cfg.design.endswith(".json") else cfg.design
         self.stale_s = stale_s
         self._step_us = round(cfg.observer.step_s * US_PER_S)
         self._gap_us = round(cfg.max_gap_s * US_PER_S)
@@ -128,8 +132,8 @@ class YawRateEstimator:
         if not lo <= inp.eas_mps <= hi:
             self.reset()
             return Estimate.unavailable(
-                self.name, t, f"EAS {inp.eas_mps:.0f} m/s outside the model's "
-                f"{lo:.0f}-{hi:.0f} m/s")
+                self.name, t, f"EAS {inp.eas_mps:.0f} m/s outside the {self.label!r} "
+                f"design's {lo:.0f}-{hi:.0f} m/s (its model holds only there)")
         reinit = ""
         imu = frame.primary_imu
         inst = imu.instance if imu is not None else 0
