@@ -141,6 +141,15 @@ def sensor_alarms(events: list[AlarmEvent]) -> list[AlarmEvent]:
             and e.kind is AlarmKind.SENSOR_FAULT]
 
 
+def observer_alarms(events: list[AlarmEvent], ch: ChannelId) -> list[AlarmEvent]:
+    """The yaw-rate observer's sensor-fault events on ``ch``: its confirmation is RAISED, or
+    UPDATED when another estimator (imu_ts, which judges the same gyro channel) raised the
+    channel's one published alarm first (``Monitor``: one alarm per channel)."""
+    return [e for e in events if e.channel == ch and e.estimator == EST
+            and e.kind is AlarmKind.SENSOR_FAULT
+            and e.state in (AlarmState.RAISED, AlarmState.UPDATED)]
+
+
 # ------------------------------------------------------------------------------------------------
 # closed loop: the autopilot flies on the (corrected) gyro -- Chen2020 Fig. 1
 # ------------------------------------------------------------------------------------------------
@@ -379,14 +388,17 @@ def _ol_rows(runs: list[OpenLoopRun], sensor: str) -> list[list[Any]]:
         f = r.truth_at(r.t_s)
         w = r.t_s >= FAULT_T0_S
         alarms = sensor_alarms(r.events)
-        mine = [e for e in alarms if e.channel == ch and e.estimator == EST]
+        mine = observer_alarms(r.events, ch)
         first = mine[0].t_us * 1e-6 if mine else math.nan
         faulty = r.f_true_t.size > 0
         other = [e for e in alarms if not (e.channel == ch and faulty)]
+        if mine and not faulty and mine[0].state is AlarmState.UPDATED:
+            other.append(mine[0])  # a false alarm of the observer behind another's
         rows.append([r.name.replace("chen2020_", ""), _rms((r.f_hat - f)[w]) * RAD2DEG,
                      float(np.max(r.e_y[w])) if w.any() else math.nan,
                      r.j_max * RAD2DEG,
-                     ("none" if not mine else f"{first - FAULT_T0_S:.2f} s, "
+                     ("none" if not mine else f"FALSE, at {first:.1f} s (before the fault)"
+                      if first < FAULT_T0_S else f"{first - FAULT_T0_S:.2f} s, "
                       f"{mine[0].fault_type.value}") if faulty else "-",
                      "; ".join(sorted({f"{e.channel} ({e.estimator})" for e in other}))
                      or "none"])
@@ -675,11 +687,7 @@ def chen2020_uav(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
         cfg = next(w[2] for w in work if w[0] == label)
         th = cfg.family("yaw_rate").fdi.threshold
         alarms = sensor_alarms(r.events)
-        # the observer's own confirmation: RAISED, or UPDATED when another estimator (imu_ts)
-        # raised the channel's alarm first (one alarm per channel)
-        mine = [e for e in r.events if e.channel == ch and e.estimator == EST
-                and e.kind is AlarmKind.SENSOR_FAULT
-                and e.state in (AlarmState.RAISED, AlarmState.UPDATED)]
+        mine = observer_alarms(r.events, ch)
         faulty = r.f_true_t.size > 0
         if not mine:
             alarm = "none" if faulty else "-"

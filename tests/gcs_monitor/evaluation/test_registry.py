@@ -20,7 +20,7 @@ NAMES = {
     "wan2018_campaign_scheduled_literal_nrz", "wan2018_campaign_lateral_literal_nrz",
     "wan2018_campaign_lateral_only_literal_nrz",
     "chen2020_design", "chen2020_ftc", "chen2020_open_loop", "chen2020_false_alarms",
-    "chen2020_roll_rate", "chen2020_identify", "chen2020_tuning",
+    "chen2020_roll_rate", "chen2020_identify", "chen2020_tuning", "chen2020_uav",
     # issue 15: never blind, never fooled
     "rate_sweep", "presets_weather", "triplex_weather", "wan2018_campaign_weather",
     "real_flights",
