@@ -349,8 +349,8 @@ def calibrate(flights: Sequence[Path], base: MonitorConfig | None = None, *,
         progress("[1/2] yaw-rate lateral model and observer design")
         yaw = identify_yaw_rate(lateral, design_path, command="gcs-monitor calibrate "
                                 + " ".join(p.name for p in flights))
-        if yaw.design_path is not None:
-            noisy = noisy.with_family("yaw_rate", design=str(yaw.design_path))
+        if yaw.design_path is not None:  # absolute: replay and live run from anywhere
+            noisy = noisy.with_family("yaw_rate", design=str(yaw.design_path.resolve()))
     observe = _observing(noisy)
     for i, path in enumerate(flights):
         progress(f"[2/2] residuals {i + 1}/{len(flights)}: {path.name}")

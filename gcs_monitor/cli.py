@@ -725,9 +725,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         print(f"gcs-monitor calibrate: no such file: {', '.join(map(str, missing))}",
               file=sys.stderr)
         return 2
-    # the yaw-rate design next to the TOML, referenced by its absolute path (replay and live
-    # may run from another directory)
-    design = args.out.parent.resolve() / f"{args.out.stem}.yaw_rate.json"
+    design = args.out.parent / f"{args.out.stem}.yaw_rate.json"  # the yaw-rate design
     cal = calibrate(args.flights, base, margin=args.margin, design_path=design,
                     progress=lambda m: print(m, file=sys.stderr, flush=True))
     print("noise model (1 sigma, SI): " + ", ".join(
