@@ -100,9 +100,10 @@ class YawRateModel:
     gamma: dict[str, float] = field(default_factory=dict)
     reason: str = ""
 
-    def summary(self, shipped: str) -> list[str]:
+    def summary(self, shipped: str, eas_margin: float) -> list[str]:
         """What ``calibrate`` prints about the yaw-rate family (``shipped``: the design kept
-        when none was identified)."""
+        when none was identified; ``eas_margin``: ``[yaw_rate.observer] eas_margin``, the share
+        outside the model's speeds the family still judges)."""
         if self.design_path is None or self.fit is None or self.eas_range_mps is None:
             return [f"yaw_rate: lateral model NOT identified: {self.reason}; the family keeps "
                     f"its shipped design {shipped!r}"]
@@ -114,7 +115,9 @@ class YawRateModel:
                  f"scheduled on EAS over {lo:.1f}-{hi:.1f} m/s")
         gam = ", ".join(f"{k} {v:.4g}" for k, v in sorted(self.gamma.items()))
         return [f"yaw_rate: lateral model identified from {self.fit.n_points} samples, {valid}; "
-                f"the family judges only inside that range",
+                f"the family judges only at EAS {lo * (1.0 - eas_margin):.1f}-"
+                f"{hi * (1.0 + eas_margin):.1f} m/s ([yaw_rate.observer] eas_margin "
+                f"{100.0 * eas_margin:g} %)",
                 f"yaw_rate: fit error (derivative NRMSE): {nr}",
                 f"yaw_rate: observer L2-gain bounds: {gam}; design -> {self.design_path}"]
 

@@ -730,7 +730,8 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
                     progress=lambda m: print(m, file=sys.stderr, flush=True))
     print("noise model (1 sigma, SI): " + ", ".join(
         f"{k} {v:.3g}" for k, v in cal.noise.items() if math.isfinite(v)))
-    for line in cal.yaw_rate.summary(base.family("yaw_rate").design):
+    yaw = base.family("yaw_rate")
+    for line in cal.yaw_rate.summary(yaw.design, yaw.observer.eas_margin):
         print(line)
     print("thresholds J_th (SI): " + ", ".join(f"{k} {v:.4g}" for k, v in
                                                sorted(cal.thresholds.items())))

@@ -97,6 +97,8 @@ def test_cli_identifies_the_yaw_rate_model_and_replay_judges_with_it(
     assert not d.model.A[1:].any() and not d.model.B[1:].any()
     assert "a constant model, valid only near that speed" in printed
     assert f"EAS {lo:.1f}-{hi:.1f} m/s" in printed
+    # and judged there only: 5 % margin ([yaw_rate.observer] eas_margin)
+    assert f"judges only at EAS {0.95 * lo:.1f}-{1.05 * hi:.1f} m/s" in printed
     # the fit error printed is the design's
     m = re.search(r"fit error \(derivative NRMSE\): phi (\S+), beta (\S+), p (\S+), r (\S+)",
                   printed)

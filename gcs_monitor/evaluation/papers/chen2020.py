@@ -707,7 +707,8 @@ def chen2020_uav(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
               "max J / J_th [deg/s]", "yaw_rate_smo alarm: delay, type",
               "other estimators' sensor-fault alarms"]
     write_csv(out_dir / "chen2020_uav.csv", header, rows)
-    return ("\n".join(cal.yaw_rate.summary(base.family("yaw_rate").design))
+    yaw = base.family("yaw_rate")
+    return ("\n".join(cal.yaw_rate.summary(yaw.design, yaw.observer.eas_margin))
             + f"\n\ncalibrated on {len(flights)} clean UAV flight(s) of {UAV_CLEAN_S:g} s "
             f"({', '.join(p.name for p in flights)}); yaw-rate J_th "
             f"{cal.config.family('yaw_rate').fdi.threshold * RAD2DEG:.3g} deg/s\n\n"
