@@ -446,16 +446,20 @@ FALSE_ALARM_MANOEUVRES = (("s_turn", "aileron"), ("coordinated_turn", "aileron")
 FALSE_ALARM_SIGMAS = (1.0, 3.54)
 
 
-def _ff_job(job: tuple[str, str, float, int]) -> OpenLoopRun:
-    manoeuvre, surface, sigma, seed = job
-    sc = case("chen2020_fault_free", seed=seed, sigma_mps=sigma)
-    sc = dataclasses.replace(
+def _ff_scenario(manoeuvre: str, surface: str, sigma: float, seed: int,
+                 airframe: str | None = None) -> Scenario:
+    """A 180 s fault-free run of one manoeuvre in turbulence ``sigma`` (m/s)."""
+    sc = case("chen2020_fault_free", seed=seed, sigma_mps=sigma, airframe=airframe)
+    return dataclasses.replace(
         sc, name=f"{manoeuvre}{'_' + surface if manoeuvre == 'doublet_3211' else ''}_"
-        f"s{sigma:g}_seed{seed}", duration_s=180.0,
+        f"s{sigma:g}_seed{seed}{'_' + airframe if airframe else ''}", duration_s=180.0,
         manoeuvre=dataclasses.replace(sc.manoeuvre, kind=manoeuvre, surface=surface,
                                       amplitude=0.0 if manoeuvre != "s_turn"
                                       else sc.manoeuvre.amplitude))
-    return open_loop_run(sc)
+
+
+def _ff_job(job: tuple[str, str, float, int]) -> OpenLoopRun:
+    return open_loop_run(_ff_scenario(*job))
 
 
 def chen2020_false_alarms(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
@@ -652,9 +656,9 @@ def _uav_clean_scenario(manoeuvre: str, surface: str, seed: int) -> Scenario:
                                       else sc.manoeuvre.amplitude))
 
 
-def _uav_job(job: tuple[str, str, MonitorConfig]) -> tuple[str, OpenLoopRun]:
-    label, name, cfg = job
-    return label, open_loop_run(case(name, airframe="uav"), cfg)
+def _uav_job(job: tuple[str, Scenario, MonitorConfig]) -> tuple[str, OpenLoopRun]:
+    label, sc, cfg = job
+    return label, open_loop_run(sc, cfg)
 
 
 def chen2020_uav(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
@@ -665,7 +669,8 @@ def chen2020_uav(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
     calibrate`` makes of clean UAV flights (``UAV_CLEAN_FLIGHTS``: the identified lateral model,
     its observer and its own J_th). Per run: the share of the family's samples it judged, why
     not, the worst J against J_th and the alarms. ``quick``: calibrate on the S-turn only, the
-    fault-free and fast-drift cases only."""
+    fault-free and fast-drift cases only. The calibrated configuration also flies the fault-free
+    manoeuvres of ``chen2020_false_alarms`` (180 s, sigma 1 and 3.54 m/s, seed 101)."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     clean = UAV_CLEAN_FLIGHTS[:1] if quick else UAV_CLEAN_FLIGHTS
@@ -677,10 +682,14 @@ def chen2020_uav(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
     base = MonitorConfig()
     cal = calibrate(flights, base, design_path=out_dir / "uav_calibrated.yaw_rate.json")
     (out_dir / "uav_calibrated.toml").write_text(calibration_toml(cal, base, flights))
-    cases = (CASES[0], CASES[2]) if quick else CASES
-    configs = {"defaults (transport design)": base, "calibrated (uav_calibrated.toml)": cal.config}
-    work = [(label, c, cfg) for label, cfg in configs.items() for c in cases]
-    work.insert(len(cases), ("`uav` design, default J_th", CASES[0], monitor_config("r", "uav")))
+    cases = [case(c, airframe="uav") for c in ((CASES[0], CASES[2]) if quick else CASES)]
+    calibrated = "calibrated (uav_calibrated.toml)"
+    configs = {"defaults (transport design)": base, calibrated: cal.config}
+    work = [(label, sc, cfg) for label, cfg in configs.items() for sc in cases]
+    work.insert(len(cases), ("`uav` design, default J_th", cases[0], monitor_config("r", "uav")))
+    # the calibrated configuration on the fault-free manoeuvres of chen2020_false_alarms
+    work += [(calibrated, _ff_scenario(m, srf, sig, 101, "uav"), cal.config)
+             for m, srf in FALSE_ALARM_MANOEUVRES for sig in FALSE_ALARM_SIGMAS]
     ch = ChannelId("gyro", 0, "r")
     rows = []
     for label, r in run_parallel(_uav_job, work, jobs, desc="chen2020_uav"):
