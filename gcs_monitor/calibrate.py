@@ -100,13 +100,14 @@ class YawRateModel:
     gamma: dict[str, float] = field(default_factory=dict)
     reason: str = ""
 
-    def summary(self, shipped: str, eas_margin: float) -> list[str]:
-        """What ``calibrate`` prints about the yaw-rate family (``shipped``: the design kept
-        when none was identified; ``eas_margin``: ``[yaw_rate.observer] eas_margin``, the share
-        outside the model's speeds the family still judges)."""
+    def summary(self, kept: str, eas_margin: float) -> list[str]:
+        """What ``calibrate`` prints about the yaw-rate family (``kept``: the configured design,
+        kept when none was identified; ``eas_margin``: ``[yaw_rate.observer] eas_margin``, the
+        share outside the model's speeds the family still judges)."""
         if self.design_path is None or self.fit is None or self.eas_range_mps is None:
+            what = "configured" if kept.endswith(".json") else "shipped"
             return [f"yaw_rate: lateral model NOT identified: {self.reason}; the family keeps "
-                    f"its shipped design {shipped!r}"]
+                    f"its {what} design {kept!r}"]
         lo, hi = self.eas_range_mps
         nr = ", ".join(f"{k} {v:.3g}" for k, v in zip(("phi", "beta", "p", "r"), self.fit.nrmse,
                                                          strict=True))
