@@ -6,8 +6,10 @@ Argument parsing and printing only; the work is done by the library modules.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import logging
 import math
+import os
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -739,6 +741,10 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     for line in margins_table(cal):
         print(line)
     args.out.parent.mkdir(parents=True, exist_ok=True)
+    if cal.yaw_rate.design_path is not None:  # written beside the TOML, named relative to it
+        cal = dataclasses.replace(cal, config=cal.config.with_family(
+            "yaw_rate", design=os.path.relpath(cal.yaw_rate.design_path.resolve(),
+                                               args.out.parent.resolve())))
     args.out.write_text(calibration_toml(cal, base, args.flights))
     print(f"\nwrote {args.out} (use it with --config)")
     return 0

@@ -236,7 +236,17 @@ def load_config(path: Path | None = None, *, base: MonitorConfig | None = None) 
         raise ConfigError(f"{src}: is a directory, not a config file") from None
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{src}: not valid TOML: {exc}") from None
-    return config_from_dict(data, src, base=base)
+    return _files_beside(config_from_dict(data, src, base=base), Path(path).parent)
+
+
+def _files_beside(cfg: MonitorConfig, folder: Path) -> MonitorConfig:
+    """File names in a configuration file are relative to that file's folder (a configuration
+    and the design ``calibrate`` wrote beside it move together): the yaw-rate design."""
+    yaw = cfg.families.get("yaw_rate")
+    design = getattr(yaw, "design", "")
+    if isinstance(design, str) and design.endswith(".json") and not Path(design).is_absolute():
+        return cfg.with_family("yaw_rate", design=str(folder / design))
+    return cfg
 
 
 # -- printing -------------------------------------------------------------------------------------

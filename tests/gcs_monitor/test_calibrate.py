@@ -89,7 +89,15 @@ def test_cli_identifies_the_yaw_rate_model_and_replay_judges_with_it(
     out, printed = calibrated
     design = out.parent / "airframe.yaw_rate.json"
     cfg = load_config(out)
-    assert cfg.family("yaw_rate").design == str(design.resolve())
+    assert Path(cfg.family("yaw_rate").design).resolve() == design.resolve()
+    # named relative to the TOML: the two files move together
+    assert 'design = "airframe.yaw_rate.json"' in out.read_text()
+    moved = out.parent / "moved"
+    moved.mkdir(exist_ok=True)
+    for f in (out, design):
+        (moved / f.name).write_bytes(f.read_bytes())
+    assert load_config(moved / out.name).family("yaw_rate").design == str(
+        moved / design.name)
     d = load_design(cfg.family("yaw_rate").design)
     # the demo flies one speed (250 kt at 3000 m): a constant model, said to be valid only there
     lo, hi = d.model.eas_range_mps
