@@ -567,6 +567,11 @@ class ChannelMonitor:
         return self._alarm.step(t_us, False, rms=self._J, threshold=self.p.threshold,
                                 message=why)
 
+    def set_threshold(self, threshold: float) -> None:
+        """A new J_th from now on (imu: raised by the measured reference error)."""
+        if threshold != self.p.threshold:
+            self.p = dataclasses.replace(self.p, threshold=threshold)
+
     def step(self, t_us: int, value: float, valid: bool) -> tuple[ChannelStatus, list[AlarmEvent]]:
         """Process one sample; an invalid or non-finite value holds J and the decision."""
         events = self.update(t_us, value, valid)
@@ -650,6 +655,11 @@ class ChannelBank:
                    and m.p.confirmation.eval_n == p0.confirmation.eval_n
                    and m.p.history_n == p0.history_n for m in monitors)
         return cls(monitors, kern) if same else None
+
+    def set_threshold(self, c: int, threshold: float) -> None:
+        """A new J_th of channel ``c`` from now on (:meth:`ChannelMonitor.set_threshold`)."""
+        self.monitors[c].set_threshold(threshold)
+        self._threshold[c] = threshold
 
     def _residuals(self, c: int) -> Callable[[], Sequence[float]]:
         def ordered() -> Sequence[float]:
