@@ -418,14 +418,18 @@ class ImuFamily:
 
     def _schedule(self, j: _Judged) -> None:
         """The accelerometer channels' J_th: configured plus the reference allowance (gating.py
-        item 3; 0 while the GPS reference is consistent with itself)."""
+        item 3; 0 while the GPS reference is consistent with itself), frozen while a channel is
+        in alarm (the allowance may prevent a raise, never clear one)."""
         th = j.sets.acc.threshold + self.reference_allowance_mps2
+        bank = j.bank
         for c, mon in enumerate(j.monitors):
-            if mon.channel.kind == "acc" and mon.p.threshold != th:
-                if j.bank is not None:
-                    j.bank.set_threshold(c, th)
-                else:
-                    mon.set_threshold(th)
+            if mon.channel.kind != "acc" or mon.p.threshold == th:
+                continue
+            if bank is not None:
+                if not bank.in_alarm(c):
+                    bank.set_threshold(c, th)
+            elif not mon.in_alarm:
+                mon.set_threshold(th)
 
     def _build_channels(self, j: _Judged, estimator: str) -> None:
         """Channel monitors with windows of the measured IMU period."""

@@ -161,3 +161,25 @@ def test_a_reference_correcting_itself_raises_the_accelerometer_thresholds_only(
         assert th[12_000_000] == {"acc": acc_th, "gyro": gyro_th}
         assert bool(faults) is alarmed
         assert all(e.channel.kind == "acc" for e in faults)
+
+
+def test_the_reference_allowance_never_clears_a_raised_alarm() -> None:
+    # an acc fault estimate of 0.5 m/s^2 from 5.5 s is raised before the reference starts
+    # correcting itself at 6.5 s (allowance 0.486 m/s^2 would put J_th at 0.676, above the
+    # fault): the channels in alarm keep J_th 0.19 and stay raised until the fault ends at 10 s
+    acc_th = CFG.ts.fdi.acc.threshold
+    est = _ScriptedAcc("imu_ts", 0.0)
+    p = _pipeline(est)
+    th: dict[int, float] = {}
+    events = []
+    for k in range(1300):
+        t_us = k * 10_000
+        est.value = 0.5 if 5.5e6 <= t_us < 10e6 else 0.0
+        out = p.step(_ref_frame(t_us, 0.5, 6.5, 9.5))
+        th[t_us] = next(c.threshold for c in out.channels if c.channel.kind == "acc")
+        events += [(t_us, e) for e in out.events if e.kind is AlarmKind.SENSOR_FAULT]
+    raised = [t for t, e in events if e.state is AlarmState.RAISED]
+    cleared = [t for t, e in events if e.state is AlarmState.CLEARED]
+    assert len(raised) == 3 and max(raised) < 6_500_000  # acc x, y, z, before the allowance
+    assert th[8_500_000] == acc_th  # frozen in alarm
+    assert len(cleared) == 3 and min(cleared) > 10_000_000  # only after the fault ends
