@@ -255,7 +255,8 @@ class ReferenceConsistency:
     sqrt 6``, at least the quantisation of GLOBAL_POSITION_INT) over the last ``noise_n``
     samples; horizontally plus ``RADIUS_TOL`` times the
     ground speed. ``inconsistency_mps`` and ``bound_mps`` are those of the component further
-    beyond (or nearer to) its bound.
+    beyond (or nearer to) its bound. A component whose position has not changed at all over the
+    window (a placeholder position, ALFA's converter writes one) is not tested.
     """
 
     def __init__(self, window_s: float, gate_sigma: float = 3.0, *, min_periods: float = 3.0,
@@ -331,7 +332,17 @@ class ReferenceConsistency:
         bounds = (self.gate_sigma * 2.0 * sp / T + RADIUS_TOL * v_h,
                   self.gate_sigma * SQRT2 * sp / T)
         mags = (math.hypot(c[0], c[1]), abs(c[2]))
-        k = 0 if mags[0] - bounds[0] >= mags[1] - bounds[1] else 1
+        # a component that has not changed by a single bit over the window is no measured
+        # position (a converter's placeholder, a held value): it is not tested
+        excess = [mags[0] - bounds[0], mags[1] - bounds[1]]
+        if p[0] == p_a[0] and p[1] == p_a[1]:
+            excess[0] = -math.inf
+        if p[2] == p_a[2]:
+            excess[1] = -math.inf
+        if excess[0] == excess[1] == -math.inf:
+            self.inconsistency_mps = self.bound_mps = math.nan
+            return
+        k = 0 if excess[0] >= excess[1] else 1
         self.inconsistency_mps = mags[k]
         self.bound_mps = bounds[k]
 

@@ -99,3 +99,21 @@ def test_invalid_settings_are_refused() -> None:
         ReferenceConsistency(0.0)
     with pytest.raises(ValueError):
         ReferenceConsistency(1.0, 0.0)
+
+
+def test_a_placeholder_position_is_not_tested() -> None:
+    # a converter's constant placeholder position (ALFA) against a velocity of 20 m/s would be a
+    # 20 m/s "inconsistency" and blind the accelerometer channels; a component that does not
+    # change at all over the window is no measured position: nothing is tested
+    ref = ReferenceConsistency(1.0)
+    _fly(ref, 3.0, (20.0, 0.0, -1.0), (0.0, 0.0, 0.0))
+    assert ref.consistent() is None
+    # a constant horizontal placeholder with a measured altitude: only down is tested
+    ref = ReferenceConsistency(1.0)
+    _fly(ref, 3.0, (20.0, 0.0, -1.0), (0.0, 0.0, -1.0))
+    assert ref.consistent() is True
+    assert ref.inconsistency_mps == pytest.approx(0.0, abs=1e-9)
+    ref = ReferenceConsistency(1.0)
+    _fly(ref, 3.0, (20.0, 0.0, -1.0), (0.0, 0.0, -0.5))
+    assert ref.consistent() is False
+    assert ref.inconsistency_mps == pytest.approx(0.5, rel=1e-6)
