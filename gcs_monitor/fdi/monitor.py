@@ -567,6 +567,16 @@ class ChannelMonitor:
         return self._alarm.step(t_us, False, rms=self._J, threshold=self.p.threshold,
                                 message=why)
 
+    def set_threshold(self, threshold: float) -> None:
+        """A new J_th from now on (imu: raised by the measured reference error)."""
+        if threshold != self.p.threshold:
+            self.p = dataclasses.replace(self.p, threshold=threshold)
+
+    @property
+    def in_alarm(self) -> bool:
+        """Confirmed faulty or its alarm still raised (a scheduled J_th is frozen then)."""
+        return self._faulty or self._alarm.active
+
     def step(self, t_us: int, value: float, valid: bool) -> tuple[ChannelStatus, list[AlarmEvent]]:
         """Process one sample; an invalid or non-finite value holds J and the decision."""
         events = self.update(t_us, value, valid)
@@ -650,6 +660,15 @@ class ChannelBank:
                    and m.p.confirmation.eval_n == p0.confirmation.eval_n
                    and m.p.history_n == p0.history_n for m in monitors)
         return cls(monitors, kern) if same else None
+
+    def set_threshold(self, c: int, threshold: float) -> None:
+        """A new J_th of channel ``c`` from now on (:meth:`ChannelMonitor.set_threshold`)."""
+        self.monitors[c].set_threshold(threshold)
+        self._threshold[c] = threshold
+
+    def in_alarm(self, c: int) -> bool:
+        """Channel ``c`` confirmed faulty or its alarm still raised."""
+        return bool(self._istate[c, self._kern.FAULTY]) or self.monitors[c].in_alarm
 
     def _residuals(self, c: int) -> Callable[[], Sequence[float]]:
         def ordered() -> Sequence[float]:

@@ -86,5 +86,15 @@ class ImuFamilyConfig:
                                      "(1 for a noise model that fits the vehicle; calibrate "
                                      "fits it); 0 turns the check off")
     consistency_window_s: float = param(10.0, "span of that average", positive=True)
+    reference_window_s: float = param(1.0, "the GPS position is checked against its own "
+                                      "integrated velocity over this span (at least 3 GPS "
+                                      "periods); what they disagree by beyond the measured "
+                                      "position noise, per second of the span, is added to "
+                                      "the accelerometer channels' J_th (a reference "
+                                      "correcting itself, gating.py item 3); 0 turns the "
+                                      "check off")
+    reference_hold_s: float = param(2.0, "that allowance is the largest of this last span "
+                                    "(the fault estimates absorbed the reference's "
+                                    "corrections and re-converge)", positive=True)
     ts: ImuTsSection = section(ImuTsSection, "Lu2016 ATSEKF on the GS-KM")
     hosm: ImuHosmSection = section(ImuHosmSection, "Atmaca2025 OTSEKF + HOSM")

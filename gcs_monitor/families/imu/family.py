@@ -24,9 +24,11 @@ from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
+from gcs_monitor.core.constants import EARTH_RADIUS_M
 from gcs_monitor.core.types import ChannelId
 from gcs_monitor.families.base import FamilyContext, FaultEstimator, Verdict
 from gcs_monitor.families.imu.config import ImuFamilyConfig, ImuFdiSets
+from gcs_monitor.families.imu.gating import ReferenceConsistency
 from gcs_monitor.families.imu.imu_hosm import ImuHosmEstimator
 from gcs_monitor.families.imu.imu_ts import ImuTwoStageEstimator
 from gcs_monitor.fdi.alarms import AlarmStateMachine
@@ -131,6 +133,16 @@ class ImuFamily:
         self._outage_us: dict[int, int] = {}  # vehicle-wide silence inside an IMU's silence
         self._instance_period: dict[int, SamplePeriod] = {}
         self._silent: dict[int, AlarmStateMachine] = {}
+        # the GPS reference against itself (gating.py item 3): the accelerometer channels'
+        # J_th is raised by the reference error it measures, for reference_hold_s after
+        self._ref: ReferenceConsistency | None = None
+        if cfg.reference_window_s > 0.0 and self._est:
+            self._ref = ReferenceConsistency(cfg.reference_window_s,
+                                             cfg.ts.estimator.gate.gate_sigma)
+        self._ref_origin: tuple[float, float, float] | None = None
+        self._ref_hold_us = round(cfg.reference_hold_s * US_PER_S)
+        self._ref_excess: deque[tuple[int, float]] = deque()  # (t_us, m/s^2) above the bound
+        self.reference_allowance_mps2 = 0.0  # added to the accelerometer J_th now
 
     @property
     def estimators(self) -> list[FaultEstimator]:
@@ -142,6 +154,8 @@ class ImuFamily:
         On a held primary sample (``imu[primary].t_us < t_us``) nothing is stepped: the estimates
         of the last new sample stand (a repeated value fed as new data would be integrated twice
         over an interval it does not describe)."""
+        if self._ref is not None:
+            self._reference(frame)
         imu = frame.primary_imu
         self._held = imu is not None and imu.t_us != frame.t_us and bool(self._estimates)
         if self._held:
@@ -149,6 +163,38 @@ class ImuFamily:
         self._period.add(frame.t_us)
         self._estimates = [j.estimator.step(frame) for j in self._est]
         return self._estimates
+
+    def _reference(self, frame: Frame) -> None:
+        """Feed the GPS velocity and position to the reference check (gating.py item 3);
+        positions north/east/down from the first one on the GS-KM's sphere (Lu2016 eq. 11)."""
+        ref = self._ref
+        assert ref is not None
+        v = frame.gps_vel_ned_mps
+        lat, lon, alt = frame.lat_rad, frame.lon_rad, frame.alt_msl_m
+        if (v is None or frame.gps_held or not (math.isfinite(lat) and math.isfinite(lon)
+                                                and math.isfinite(alt))
+                or not all(map(math.isfinite, v))):
+            ref.reset()
+            return
+        q_us = frame.t_us - frame.gps_delay_us
+        base = None
+        if frame.gps_new:
+            if self._ref_origin is None:
+                self._ref_origin = (lat, lon, alt)
+            lat0, lon0, alt0 = self._ref_origin
+            r = EARTH_RADIUS_M + alt
+            pos = (r * (lat - lat0), r * math.cos(lat0) * (lon - lon0), alt0 - alt)
+            base = (q_us - round(frame.gps_age_s * US_PER_S), pos)
+        ref.add(q_us, v, base)
+        t_us = frame.t_us
+        q = self._ref_excess
+        if base is not None and ref.consistent() is False:
+            # the velocity reference is off by ~c beyond its noise, changing within the
+            # window: an acceleration error of (c - bound) / T the fault estimates absorb
+            q.append((t_us, (ref.inconsistency_mps - ref.bound_mps) / self.cfg.reference_window_s))
+        while q and q[0][0] < t_us - self._ref_hold_us:
+            q.popleft()
+        self.reference_allowance_mps2 = max((a for _, a in q), default=0.0)
 
     def _held_verdict(self, frame: Frame) -> Verdict:
         """The family's account on a held primary sample: unchanged (not a new sample) while the
@@ -353,6 +399,7 @@ class ImuFamily:
                 return
             self._build_channels(j, e.name)
         values = list(faults.values())
+        self._schedule(j)
         if j.bank is not None:  # one numba call for all channels
             ev = j.bank.update(t_us, values, judged, statuses)
             if ev:
@@ -368,6 +415,21 @@ class ImuFamily:
                 ev = mon.update(t_us, value, judged)
                 if ev:
                     verdict.events += ev
+
+    def _schedule(self, j: _Judged) -> None:
+        """The accelerometer channels' J_th: configured plus the reference allowance (gating.py
+        item 3; 0 while the GPS reference is consistent with itself), frozen while a channel is
+        in alarm (the allowance may prevent a raise, never clear one)."""
+        th = j.sets.acc.threshold + self.reference_allowance_mps2
+        bank = j.bank
+        for c, mon in enumerate(j.monitors):
+            if mon.channel.kind != "acc" or mon.p.threshold == th:
+                continue
+            if bank is not None:
+                if not bank.in_alarm(c):
+                    bank.set_threshold(c, th)
+            elif not mon.in_alarm:
+                mon.set_threshold(th)
 
     def _build_channels(self, j: _Judged, estimator: str) -> None:
         """Channel monitors with windows of the measured IMU period."""

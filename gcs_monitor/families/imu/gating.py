@@ -44,17 +44,40 @@ fault model is "the IMU is wrong" (Lu2016 eqs. 5-8, faults added to the measured
    re-anchor those states on the measurement, keep the fault estimates). Lu2016 has no such
    gate (its sec. 5 flight data have no resets); a fault step beyond the admitted one is
    outside the fault model of Lu2016 sec. 3.1 (random walk with the prior of FaultPrior).
+
+3. **The reference corrects itself over seconds** (ours, measured on the 64 Zipline launches).
+   A velocity and position that are the outputs of the vehicle's own navigation filter are not
+   kinematic measurements while that filter applies corrections. After the catapult, until its
+   GNSS reset at 7.94 s, every Zipline flight's velocity departs from the integrated specific
+   force: the mean body-z misfit ``dv/dt - (R f + g)`` over 0.5-2 s after launch is 0.07-0.54
+   m/s^2 (median 0.27), against ~0.03 on the launcher. The GS-KM filter cannot tell that from an
+   accelerometer bias: f_hat_Az reaches 0.2-0.55 m/s^2 whatever the noise model (the noise
+   measured on the flights gives the same), above the simulator's J_th (0.19 m/s^2). The same
+   reference's position then does not follow its own velocity: the largest
+   ``|Delta p - integral v dt| / T`` down over 1 s windows is 0.67-3.8 m/s (median 1.4) in
+   0.5-7.4 s after launch, 0.01-0.28 (median 0.02) on the launcher and median 0.07 after the
+   reset. An IMU fault changes neither the reference position nor its velocity, so this test of
+   the reference against itself cannot be opened by the faults the family reconstructs.
+   :class:`ReferenceConsistency` measures it from the GPS samples against the position noise it
+   measures itself (robust second differences: a raw GNSS position with metre noise makes it
+   insensitive); what exceeds that bound, divided by the window (a velocity error of that size
+   changing within it), is an acceleration error of the reference, and the accelerometer
+   channels' J_th is raised by it while it lasts and ``reference_hold_s`` after
+   (families/imu/family.py). Faults larger than the reference's own error are still detected;
+   the channels are never switched off.
 """
 
 from __future__ import annotations
 
 import math
+from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import StrEnum
 
 import numpy as np
 
+from gcs_monitor.core.constants import EARTH_RADIUS_M
 from gcs_monitor.core.types import Vec
 
 SQRT6 = math.sqrt(6.0)  # std of the second difference of unit white noise
@@ -206,3 +229,125 @@ class MeasurementStepGate:
             return GateDecision.REANCHOR
         self.n_rejected += 1
         return GateDecision.REJECT
+
+
+MAD_SIGMA = 0.6745  # median absolute deviation of a unit Gaussian
+# The GS-KM's spherical earth (R_e = 6367 km, Lu2016 eq. 11) against WGS-84's radii of curvature
+# (meridian 6335-6400 km, prime vertical 6378-6400 km): a horizontal position from a receiver
+# and a velocity integrated on the sphere differ by up to this share of the ground speed.
+RADIUS_TOL = 0.0053
+# GLOBAL_POSITION_INT carries lat/lon in 1e-7 deg (1.1 cm on the GS-KM's sphere): a position
+# noise below its quantisation (sigma = LSB / sqrt 12) cannot be measured
+POSITION_LSB_SIGMA_M = 1e-7 * math.pi / 180.0 * EARTH_RADIUS_M / math.sqrt(12.0)
+
+
+class ReferenceConsistency:
+    """The reference position against its own velocity (module docstring, item 3).
+
+    ``add(q_us, vel_ned_mps, base)`` per Frame: ``q_us`` the instant the velocity is of (the
+    Frame time minus the GPS delay), ``base`` ``(t_us, pos_ned_m)`` of a new GPS sample (None
+    when the Frame brings none). The velocity is integrated by the trapezoid over the Frames;
+    at each new GPS sample at least ``window_s`` (and ``min_periods`` of its own intervals)
+    after an earlier one, ``c = (Delta p - integral v dt) / T`` is the inconsistency (m/s),
+    horizontal (norm of north and east) and down apart. Bounds: ``gate_sigma sqrt(2 n)
+    sigma_p / T`` (n = 2 horizontal, 1 down), ``sigma_p`` the position noise
+    measured from the robust spread of the position's second differences (``MAD / 0.6745 /
+    sqrt 6``, at least the quantisation of GLOBAL_POSITION_INT) over the last ``noise_n``
+    samples; horizontally plus ``RADIUS_TOL`` times the
+    ground speed. ``inconsistency_mps`` and ``bound_mps`` are those of the component further
+    beyond (or nearer to) its bound. A component whose position has not changed at all over the
+    window (a placeholder position, ALFA's converter writes one) is not tested.
+    """
+
+    def __init__(self, window_s: float, gate_sigma: float = 3.0, *, min_periods: float = 3.0,
+                 noise_n: int = 50, max_gap_s: float = 0.5) -> None:
+        if not (window_s > 0.0 and gate_sigma > 0.0 and noise_n >= 3):
+            raise ValueError("ReferenceConsistency: window_s, gate_sigma > 0, noise_n >= 3")
+        self.window_us = round(window_s * 1e6)
+        self.gate_sigma = gate_sigma
+        self.min_periods = min_periods
+        self.max_gap_us = round(max_gap_s * 1e6)
+        self._q_prev: int | None = None
+        self._v_prev: tuple[float, float, float] = (0.0, 0.0, 0.0)
+        self._integral = [0.0, 0.0, 0.0]  # integral of v since the chain started, m
+        self._base: deque[tuple[int, tuple[float, ...], tuple[float, ...]]] = deque()
+        self._d2: deque[float] = deque(maxlen=noise_n)  # second differences of position, m
+        self.inconsistency_mps = math.nan  # the last one measured (norm)
+        self.bound_mps = math.nan
+
+    def reset(self) -> None:
+        self._q_prev = None
+        self._integral = [0.0, 0.0, 0.0]
+        self._base.clear()
+        self.inconsistency_mps = math.nan
+
+    def sigma_pos_m(self) -> float:
+        """Position noise measured from its second differences (NaN before 3 of them)."""
+        if len(self._d2) < 3:
+            return math.nan
+        x = sorted(self._d2)
+        med = x[len(x) // 2]
+        mad = sorted(abs(v - med) for v in x)[len(x) // 2]
+        return max(mad / MAD_SIGMA / math.sqrt(6.0), POSITION_LSB_SIGMA_M)
+
+    def add(self, q_us: int, vel_ned_mps: Sequence[float] | Vec,
+            base: tuple[int, Sequence[float]] | None) -> None:
+        v = (float(vel_ned_mps[0]), float(vel_ned_mps[1]), float(vel_ned_mps[2]))
+        if self._q_prev is not None and not 0 < q_us - self._q_prev <= self.max_gap_us:
+            self.reset()  # a gap, or time going back: the integral starts again
+        if self._q_prev is not None:
+            h = 0.5e-6 * (q_us - self._q_prev)
+            for i in range(3):
+                self._integral[i] += h * (v[i] + self._v_prev[i])
+        self._q_prev, self._v_prev = q_us, v
+        if base is None:
+            return
+        t_b, p = base[0], tuple(float(x) for x in base[1])
+        # the integral at the sample's own instant (a little before q_us: linear in between)
+        back = 1e-6 * (q_us - t_b)
+        i_b = tuple(self._integral[i] - back * v[i] for i in range(3))
+        b = self._base
+        if len(b) >= 2:  # second differences of the last three positions (noise)
+            p0, p1 = b[-2][1], b[-1][1]
+            for i in range(3):
+                self._d2.append(p[i] - 2.0 * p1[i] + p0[i])
+        b.append((t_b, p, i_b))
+        span_min = self.window_us
+        if len(b) >= 2:
+            span_min = max(span_min, round(self.min_periods * (t_b - b[-2][0])))
+        while len(b) > 2 and t_b - b[1][0] >= span_min:
+            b.popleft()
+        t_a, p_a, i_a = b[0]
+        if t_b - t_a < span_min:
+            return
+        T = 1e-6 * (t_b - t_a)
+        c = [((p[i] - p_a[i]) - (i_b[i] - i_a[i])) / T for i in range(3)]
+        sp = self.sigma_pos_m()
+        if not math.isfinite(sp):
+            self.inconsistency_mps = self.bound_mps = math.nan
+            return
+        # horizontal and vertical apart: the horizontal position also carries the earth
+        # model's scale (the GS-KM's sphere against the receiver's ellipsoid)
+        v_h = math.hypot(i_b[0] - i_a[0], i_b[1] - i_a[1]) / T
+        bounds = (self.gate_sigma * 2.0 * sp / T + RADIUS_TOL * v_h,
+                  self.gate_sigma * SQRT2 * sp / T)
+        mags = (math.hypot(c[0], c[1]), abs(c[2]))
+        # a component that has not changed by a single bit over the window is no measured
+        # position (a converter's placeholder, a held value): it is not tested
+        excess = [mags[0] - bounds[0], mags[1] - bounds[1]]
+        if p[0] == p_a[0] and p[1] == p_a[1]:
+            excess[0] = -math.inf
+        if p[2] == p_a[2]:
+            excess[1] = -math.inf
+        if excess[0] == excess[1] == -math.inf:
+            self.inconsistency_mps = self.bound_mps = math.nan
+            return
+        k = 0 if excess[0] >= excess[1] else 1
+        self.inconsistency_mps = mags[k]
+        self.bound_mps = bounds[k]
+
+    def consistent(self) -> bool | None:
+        """True/False once measured, None before (too few samples)."""
+        if not math.isfinite(self.inconsistency_mps) or not math.isfinite(self.bound_mps):
+            return None
+        return self.inconsistency_mps <= self.bound_mps

@@ -3,11 +3,16 @@ sensor faults) and the re-convergence warm-up, with scripted estimators in the p
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
+import numpy as np
+
+from gcs_monitor.core.constants import EARTH_RADIUS_M
 from gcs_monitor.families.base import FamilyContext
 from gcs_monitor.families.imu.config import ImuFamilyConfig, ImuFdiSets
 from gcs_monitor.families.imu.family import ImuFamily
+from gcs_monitor.families.imu.gating import POSITION_LSB_SIGMA_M
 from gcs_monitor.families.imu.imu_ts import FAULT_CHANNELS
 from gcs_monitor.fdi.events import AlarmKind, AlarmState
 from gcs_monitor.fdi.records import Estimate
@@ -103,3 +108,78 @@ def test_channel_windows_follow_the_measured_imu_rate() -> None:
         assert mon.p.rms.rms_window_n == n
         assert mon.p.confirmation.detect_n == round(0.8 * n)
         assert mon.p.dt_s == dt_us * 1e-6
+
+
+class _ScriptedAcc(_Scripted):
+    """:class:`_Scripted` with the fault estimate on the accelerometer channels only."""
+
+    def step(self, frame: Frame) -> Estimate:
+        e = super().step(frame)
+        return dataclasses.replace(
+            e, faults={c: (v if c.kind == "acc" else 0.0) for c, v in e.faults.items()})
+
+
+def _ref_frame(t_us: int, sink_mps: float, since_s: float, until_s: float) -> Frame:
+    """A Frame whose GPS reference flies north at 20 m/s at 500 m above the sphere, its
+    position sinking ``sink_mps`` faster than its (zero) down velocity between ``since_s`` and
+    ``until_s`` (a navigation filter correcting itself)."""
+    t = t_us * 1e-6
+    down = sink_mps * (min(max(t, since_s), until_s) - since_s)
+    alt = 500.0 - down
+    return Frame(t_us=t_us, imu=[None], gps_vel_ned_mps=np.array([20.0, 0.0, 0.0]),
+                 gps_age_s=0.0, gps_new=True, lat_rad=20.0 * t / (EARTH_RADIUS_M + alt),
+                 lon_rad=0.0, alt_msl_m=alt)
+
+
+def test_a_reference_correcting_itself_raises_the_accelerometer_thresholds_only() -> None:
+    # 6-9 s: position and velocity disagree by 0.5 m/s down. The allowance is (0.5 - bound) / 1 s
+    # with the bound 3 sqrt(2) x 3.2 mm / 1 s (quantisation noise): 0.486 m/s^2 on the acc J_th
+    # once a whole window lies in 6-9 s, held reference_hold_s (2 s); the gyro J_th unchanged.
+    # A scripted acc fault estimate of 0.4 m/s^2 (what such a reference makes f_hat_Az) from 6.5 s
+    # raises nothing; one of 1.0 m/s^2, beyond the reference's own error, is detected.
+    acc_th, gyro_th = CFG.ts.fdi.acc.threshold, CFG.ts.fdi.gyro.threshold
+    bound = 3.0 * math.sqrt(2.0) * POSITION_LSB_SIGMA_M
+    assert CFG.reference_window_s == 1.0 and CFG.reference_hold_s == 2.0
+    for fault, alarmed in ((0.4, False), (1.0, True)):
+        est = _ScriptedAcc("imu_ts", 0.0)
+        p = _pipeline(est)
+        th: dict[int, dict[str, float]] = {}
+        faults = []
+        for k in range(1400):
+            t_us = k * 10_000
+            est.value = fault if 6.5e6 <= t_us < 9e6 else 0.0
+            out = p.step(_ref_frame(t_us, 0.5, 6.0, 9.0))
+            th[t_us] = {c.channel.kind: c.threshold for c in out.channels}
+            faults += [e for e in out.events if e.kind is AlarmKind.SENSOR_FAULT
+                       and e.state is AlarmState.RAISED]
+        assert th[5_900_000] == {"acc": acc_th, "gyro": gyro_th}
+        assert math.isclose(th[8_000_000]["acc"], acc_th + 0.5 - bound, rel_tol=1e-6)
+        assert th[8_000_000]["gyro"] == gyro_th
+        # the last window that overlaps 6-9 s by more than the bound ends at ~9.97 s (its
+        # inconsistency is 0.5 m/s x the overlap); the allowance is held 2 s after it
+        assert th[11_900_000]["acc"] > acc_th
+        assert th[12_000_000] == {"acc": acc_th, "gyro": gyro_th}
+        assert bool(faults) is alarmed
+        assert all(e.channel.kind == "acc" for e in faults)
+
+
+def test_the_reference_allowance_never_clears_a_raised_alarm() -> None:
+    # an acc fault estimate of 0.5 m/s^2 from 5.5 s is raised before the reference starts
+    # correcting itself at 6.5 s (allowance 0.486 m/s^2 would put J_th at 0.676, above the
+    # fault): the channels in alarm keep J_th 0.19 and stay raised until the fault ends at 10 s
+    acc_th = CFG.ts.fdi.acc.threshold
+    est = _ScriptedAcc("imu_ts", 0.0)
+    p = _pipeline(est)
+    th: dict[int, float] = {}
+    events = []
+    for k in range(1300):
+        t_us = k * 10_000
+        est.value = 0.5 if 5.5e6 <= t_us < 10e6 else 0.0
+        out = p.step(_ref_frame(t_us, 0.5, 6.5, 9.5))
+        th[t_us] = next(c.threshold for c in out.channels if c.channel.kind == "acc")
+        events += [(t_us, e) for e in out.events if e.kind is AlarmKind.SENSOR_FAULT]
+    raised = [t for t, e in events if e.state is AlarmState.RAISED]
+    cleared = [t for t, e in events if e.state is AlarmState.CLEARED]
+    assert len(raised) == 3 and max(raised) < 6_500_000  # acc x, y, z, before the allowance
+    assert th[8_500_000] == acc_th  # frozen in alarm
+    assert len(cleared) == 3 and min(cleared) > 10_000_000  # only after the fault ends
