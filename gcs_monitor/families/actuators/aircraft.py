@@ -12,7 +12,7 @@ in one of two forms depending on what the telemetry carries:
       aileron   p_k = b u_a s + a p + c r + d
       elevator  q_k = b u_e s + a q + c f_z + d
       rudder    r_k = b u_r s + a r + c f_y + c' p + d
-      engine    f_x,k = b thr + a s + c f_z + d
+      engine    f_x,k = b thr + b_1 lag_1(thr) + b_2 lag_2(thr) + a s + c f_z + d
 
   every right-hand term taken at the previous control sample k-1 (causal: see
   :meth:`AircraftTier._regression`), with ``s = (V / V_ref)^2``, ``f`` the specific force
@@ -45,7 +45,10 @@ surface has ``kappa ~ 0`` and sits where the response says it is: with servo out
 position that explains the response, ``u + e / b`` (``b`` the reference effectiveness, ``e``
 its prediction error), averaged over the history ("stuck at zero" near neutral); without them
 the position is unobservable. ``0 < kappa < 1`` is a loss of effectiveness of ``1 - kappa``.
-The engine's loss is the thrust deficit over the reference's thrust at that throttle.
+The engine's loss is the thrust deficit over the reference's thrust at that throttle. The
+engine's model regresses on the throttle through lags (its thrust spools up: see
+:meth:`AircraftTier._throttle_lags`) and, where the vanes send the angle of attack, along the
+airflow; a deficit counts only up to the thrust the model gives (an engine cannot lose more).
 
 An axis steps when its command has a new sample and the response (body rates, specific force)
 has changed since its last step: a logger that repeats its last IMU sample (ALFA's 20 Hz grid
@@ -56,6 +59,7 @@ over a 2.5 Hz IMU) gives no new information, and the measured step rate is repor
 from __future__ import annotations
 
 import math
+import statistics
 from collections import deque
 from dataclasses import dataclass, field
 
@@ -81,6 +85,8 @@ from gcs_monitor.telemetry.period import SamplePeriod
 
 US_PER_S = 1_000_000
 ENGINE = 3
+# the engine model's lag basis: first-order lags of these multiples of ``engine_lag_s``
+ENGINE_LAG_MULTIPLES = (1.0, 3.0)
 ESTIMATOR = "actuators_aircraft"
 PERIOD_REFRESH = 50  # axis steps between two re-measurements of the step period
 ESTIMATE_PERIOD_US = 100_000  # estimates (dashboard, evaluation) at most at 10 Hz
@@ -104,6 +110,7 @@ class Signals:
     f: tuple[float, float, float]  # specific force FRD
     euler: tuple[float, float, float] | None
     airspeed_mps: float
+    aoa_rad: float  # the median of the vanes' angles of attack (NaN without vanes)
     u_rad: tuple[float, float, float]  # commanded deflections from the servo outputs
     throttle: float  # 0..1
     err_roll_rad: float  # nav_roll - roll
@@ -198,6 +205,11 @@ class _Axis:
     effectiveness: float = math.nan
     position_rad: float = math.nan
     command_rad: float = math.nan
+    # the engine's response is the specific force along the airflow (decided when its model
+    # starts: the angle of attack is sent)
+    wind_axes: bool = False
+    # the throttle through the engine-lag filters (ENGINE_LAG_MULTIPLES x engine_lag_s)
+    thr_lag: list[float] = field(default_factory=list)
 
     @property
     def faulty(self) -> bool:
@@ -241,6 +253,8 @@ class _Axis:
         self.res = self.eff = None  # rebuilt with the new step period
         self.nu = self.z = 0.0
         self.effectiveness = self.position_rad = math.nan
+        self.wind_axes = False
+        self.thr_lag = []
 
 
 class AircraftTier:
@@ -286,6 +300,8 @@ class AircraftTier:
             v = cas if math.isfinite(cas) and cas > 0.0 else nan
         if v != v and frame.gps_vel_ned_mps is not None:
             v = float(np.linalg.norm(frame.gps_vel_ned_mps))
+        vanes = [a for a in frame.aoa_rad.tolist() if a == a]
+        aoa = statistics.median(vanes) if vanes else nan  # robust to one faulty vane of three
         out = self.cfg.outputs
         u = [nan, nan, nan]
         thr = nan
@@ -308,7 +324,7 @@ class AircraftTier:
             ep = _wrap(nav.nav_pitch_rad - e[1])
         if nav is not None and math.isfinite(v) and v > 1.0:
             ee = nav.aspd_error_mps + GRAVITY_STD_MPS2 * nav.alt_error_m / v
-        return Signals(frame.t_us, omega, f, e, v, (u[0], u[1], u[2]), thr, er, ep, ee,
+        return Signals(frame.t_us, omega, f, e, v, aoa, (u[0], u[1], u[2]), thr, er, ep, ee,
                        servo.t_us if servo is not None else -1,
                        nav.t_us if nav is not None else -1,
                        hud.t_us if hud is not None else -1)
@@ -370,7 +386,14 @@ class AircraftTier:
             else:  # the throttle saturates as the energy error grows
                 e_max = self.cfg.model.max_energy_error_mps
                 cmd = max(-e_max, min(e_max, prev.energy_err_mps))
-            return s.f[0], [cmd, sq, fp[2], 1.0]
+            y = s.f[0]
+            if ax.wind_axes:
+                # along the airflow: (T cos(alpha) - D) / m. In body axes the lift's share
+                # L sin(alpha) / m of f_x moves with alpha (a gust, a shear's downdraft) with
+                # no change of thrust or drag
+                a = s.aoa_rad
+                y = s.f[0] * math.cos(a) + s.f[2] * math.sin(a)
+            return y, [cmd, *self._throttle_lags(ax, cmd, s.t_us - prev.t_us), sq, fp[2], 1.0]
         lim = self.cfg.model.max_setpoint_error_rad
         if ax.mode == SERVO:
             cmd = prev.u_rad[i] * sq
@@ -388,6 +411,38 @@ class AircraftTier:
         if i == 1:
             return w[1], [cmd, wp[1], fp[2], 1.0]
         return w[2], [cmd, wp[2], fp[1], wp[0], 1.0]
+
+    def _throttle_lags(self, ax: _Axis, thr: float, dt_us: int) -> list[float]:
+        """The throttle through the engine's lag filters, one per ``ENGINE_LAG_MULTIPLES``
+        (none in setpoint mode or with ``engine_lag_s`` 0).
+
+        An engine's thrust follows its throttle as a lag (a turbofan spools up in seconds);
+        a model on the throttle alone reads a fast throttle increase as a thrust deficit until
+        the engine catches up. A basis of first-order lags as regressors (the identification
+        of a dynamic system by filtered inputs) lets the data weight them, whatever the lag of
+        this airframe: thrust = b thr + sum_j b_j lag_j(thr), exact for a first-order lag
+        between the basis' time constants to a few per cent.
+        """
+        tau = self.cfg.model.engine_lag_s
+        if ax.mode != SERVO or tau <= 0.0:
+            return []
+        if len(ax.thr_lag) != len(ENGINE_LAG_MULTIPLES):
+            ax.thr_lag = [thr] * len(ENGINE_LAG_MULTIPLES)  # start in steady state
+            return list(ax.thr_lag)
+        dt = dt_us / US_PER_S
+        for j, k in enumerate(ENGINE_LAG_MULTIPLES):
+            a = math.exp(-dt / (k * tau))
+            ax.thr_lag[j] = a * ax.thr_lag[j] + (1.0 - a) * thr
+        return list(ax.thr_lag)
+
+    @staticmethod
+    def _thrust(ax: _Axis, phi: list[float]) -> float:
+        """The engine model's thrust term (specific force, m/s^2): the throttle and its lags
+        times their weights."""
+        assert ax.ref is not None
+        n = 1 + len(ax.thr_lag) if ax.mode == SERVO else 1
+        th = ax.ref.theta
+        return float(sum(float(th[j]) * phi[j] for j in range(n)))
 
     # -- the three phases -----------------------------------------------------------------------
     def predict(self, frame: Frame) -> Signals | None:
@@ -470,6 +525,13 @@ class AircraftTier:
         if ax.steps <= PERIOD_REFRESH or ax.steps % PERIOD_REFRESH == 0:
             # a median of 16 intervals: every step while it settles, then now and then
             ax.period_s = ax.period.seconds()
+        if ax.index == ENGINE:
+            if ax.ref is None:
+                ax.wind_axes = self.cfg.model.engine_wind_axes and s.aoa_rad == s.aoa_rad
+            elif ax.wind_axes and s.aoa_rad != s.aoa_rad:
+                reasons.append("engine: angle of attack missing (its model is along the "
+                               "airflow)")
+                return None
         y, phi = self._regression(ax, s, prev)
         if not (math.isfinite(y) and all(map(math.isfinite, phi))):
             reasons.append(f"{ax.channel.axis}: inputs not finite")
@@ -481,12 +543,20 @@ class AircraftTier:
         phi_v = np.array(phi)
         e = y - ax.ref.predict(phi_v)
         ax.e_ref = e
+        if ax.index == ENGINE and ax.mode == SERVO:
+            # an engine can lose at most the thrust it was making: with the throttle known, the
+            # part of a deficit an engine fault can explain is bounded by the model's thrust at
+            # that throttle, b thr (none at idle, none while b is not identified as positive).
+            # A larger deficit (drag and lift in wind shear with the throttle at idle) is no
+            # evidence against the engine. The models learn the unbounded error (_learn).
+            e = max(e, -max(self._thrust(ax, phi), 0.0))
         floor = m.min_accel_sigma_mps2 if ax.index == ENGINE else m.min_rate_sigma_radps
         sigma = math.sqrt(max(ax.sigma2, floor * floor)) if ax.sigma2 == ax.sigma2 else math.inf
         nu = e / sigma
         ax.nu = nu
         sq = self._scale(prev)
-        ax.hist.append((s.t_us, phi[0], e, sq))
+        # the history's command: the engine's is its modelled thrust (its lags included)
+        ax.hist.append((s.t_us, self._thrust(ax, phi) if ax.index == ENGINE else phi[0], e, sq))
         horizon = s.t_us - self._history_us
         while ax.hist and ax.hist[0][0] < horizon:
             ax.hist.popleft()
@@ -672,18 +742,18 @@ class AircraftTier:
         b = float(ax.ref.theta[0])
         h = np.array([(x, e, sq) for _, x, e, sq in ax.hist])
         src = "servo outputs" if ax.mode == SERVO else "setpoints"
-        if len(h) < 4 or abs(b) < 1e-9:
+        if len(h) < 4 or (abs(b) < 1e-9 and ax.index != ENGINE):
             return FaultType.UNKNOWN, math.nan, f"{name}: response off its model ({src})"
         x, e, sq = h[:, 0], h[:, 1], h[:, 2]
         if ax.index == ENGINE:
             deficit = -float(np.mean(e))
             if ax.mode == SERVO:
-                thrust = b * float(np.mean(x))
+                thrust = float(np.mean(x))  # the modelled thrust (the history's command)
                 loss = min(1.0, max(0.0, deficit / thrust)) if thrust > 1e-9 else math.nan
                 what = "engine out" if loss >= 0.8 else f"{100 * loss:.0f} % of thrust lost"
                 return (FaultType.LOSS_OF_EFFECTIVENESS, loss,
-                        f"engine: {what} (thrust deficit {deficit:.2f} m/s^2 at throttle "
-                        f"{float(np.mean(x)):.2f})")
+                        f"engine: {what} (thrust deficit {deficit:.2f} m/s^2 of the "
+                        f"{thrust:.2f} m/s^2 its model gives at this throttle)")
             return (FaultType.LOSS_OF_EFFECTIVENESS, math.nan,
                     f"engine: thrust deficit {deficit:.2f} m/s^2 against the energy the "
                     f"autopilot asks for (no throttle: loss not quantified)")
