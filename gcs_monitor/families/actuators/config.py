@@ -105,17 +105,11 @@ class ModelConfig:
                                         "clipped here (the throttle saturates)", positive=True)
     max_step_s: float = param(1.0, "a longer gap between two control samples restarts the "
                               "models' lagged terms", positive=True)
-    engine_lag_s: float = param(1.0, "the engine's thrust follows its throttle with a lag "
-                                "(a turbofan spools up in seconds, a propeller in a tenth): "
-                                "with servo outputs the engine model regresses on the throttle "
-                                "and on it through first-order lags of this and of three times "
-                                "this time constant, whose weights the data identify; 0: the "
-                                "throttle alone")
-    engine_wind_axes: bool = param(True, "where the angle of attack is sent (AOA_SSA vanes, "
-                                   "their median), the engine model's response is the specific "
-                                   "force along the airflow, f_x cos(alpha) + f_z sin(alpha): "
-                                   "the lift's share of the body-x force, which changes with "
-                                   "alpha in a gust or a shear, leaves it")
+    engine_lag_max_s: float = param(3.6, "the engine's thrust follows its throttle with a lag "
+                                    "(a turbofan spools up in seconds, a propeller in a "
+                                    "tenth): with servo outputs, engine models on the "
+                                    "throttle through lags of 0, 1/9, 1/3 and 1 x this learn "
+                                    "side by side and the best fit judges; 0: no lag")
 
 
 @dataclass(frozen=True, slots=True)
