@@ -60,6 +60,7 @@ over a 2.5 Hz IMU) gives no new information, and the measured step rate is repor
 from __future__ import annotations
 
 import math
+import statistics
 from collections import deque
 from dataclasses import dataclass, field
 
@@ -320,10 +321,13 @@ class AircraftTier:
         e = tuple(frame.euler_rad.tolist()) if frame.euler_rad is not None else None
         nan = math.nan
         hud = frame.hud
-        v = hud.airspeed_mps if hud is not None and hud.airspeed_mps > 0.0 else nan
-        if v != v:
-            cas = float(frame.cas_mps[0]) if len(frame.cas_mps) else nan
-            v = cas if math.isfinite(cas) and cas > 0.0 else nan
+        # the airspeed: the median of the pitots (one faulty pitot of three cannot move it;
+        # the autopilot's VFR_HUD airspeed is one sensor, or its own fusion of them), else
+        # VFR_HUD's, else the ground speed
+        pitots = [c for c in frame.cas_mps.tolist() if c > 0.0]  # False for NaN
+        v = statistics.median(pitots) if pitots else nan
+        if v != v and hud is not None and hud.airspeed_mps > 0.0:
+            v = hud.airspeed_mps
         if v != v and frame.gps_vel_ned_mps is not None:
             v = float(np.linalg.norm(frame.gps_vel_ned_mps))
         out = self.cfg.outputs
