@@ -559,6 +559,7 @@ class AircraftTier:
         if prev is None or s.t_us - prev.t_us > self.cfg.model.max_step_s * US_PER_S:
             ax.period.gap()
             ax.period.add(s.t_us)
+            ax.thr_lag = []  # the engine lags restart too, at the throttle after the gap
             return None
         ax.period.add(s.t_us)
         ax.steps += 1

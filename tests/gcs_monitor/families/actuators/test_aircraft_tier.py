@@ -211,3 +211,14 @@ def test_engine_out_is_raised_and_a_deficit_is_bounded_by_the_thrust():
     assert raised[0].fault_type is FaultType.LOSS_OF_EFFECTIVENESS
     later = [e for e in events if e.channel == raised[0].channel]
     assert all(not e.magnitude > 1.0 for e in later)
+
+
+def test_a_link_outage_restarts_the_engine_lags():
+    """3 s without telemetry while the throttle steps from 0.8 to 0.3 (at 40 s): the lag
+    filters restart at the throttle after the gap, as the other lagged terms do; a filter
+    carried across it expects the old throttle's thrust and reads a deficit (a fleet soak's
+    false engine alarm)."""
+    tier = _tier()
+    frames = [f for f in _engine_frames(70.0, tau_s=1.5) if not 39.0 <= f.t_us * 1e-6 < 42.0]
+    events, _ = _run(tier, frames)
+    assert not [e for e in events if e.kind is AlarmKind.ACTUATOR_FAULT]
