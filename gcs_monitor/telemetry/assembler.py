@@ -109,6 +109,7 @@ MAX_VEHICLE_T_US = 4_102_444_800_000_000  # 2100-01-01T00:00Z as UNIX µs (modul
 GPS_RING = 16  # GPS samples kept for interpolation (>= D / GPS period + 2)
 DEFAULT_GPS_DELAY_S = 0.1  # one GPS period at 10 Hz (docs/telemetry.md default GPS rate)
 DEFAULT_STALE_S = 0.5
+SURF_BACKLOG = 64  # SURF samples kept for the next Frame (Frame.surf_new)
 MAX_PENDING = 10_000  # held frames in aligned mode (100 s at 100 Hz): memory bound
 GPS_FIX_3D = 3
 GPS_GAP_PERIODS = 1.5  # GPS samples this many periods apart are still interpolated between
@@ -254,6 +255,10 @@ class FrameAssembler:
         self._oat = math.nan
         self._surf: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self._surf_t = NEVER_US
+        # the SURF samples not yet handed to a Frame (Frame.surf_new), bounded: a Frame
+        # slower than SURF by more than this keeps the newest
+        self._surf_backlog: collections.deque[tuple[int, np.ndarray, np.ndarray, np.ndarray]] \
+            = collections.deque(maxlen=SURF_BACKLOG)
         # control telemetry (samples stamped with their vehicle time; see _control_fields)
         self._servo: ServoOutputs | None = None
         self._nav: NavOutput | None = None
@@ -775,9 +780,12 @@ class FrameAssembler:
         t_us = int(m.time_usec)
         if self._bad_time("DEBUG_FLOAT_ARRAY.time_usec", t_us):
             return []
+        if t_us == self._surf_t or 0 < self._surf_t - t_us <= REBOOT_JUMP_US:
+            return []  # a repeated or reordered SURF sample is no new one
         self._surf = (cmd, pos, rod)
         self._ever_surf = True
         self._surf_t = t_us
+        self._surf_backlog.append((t_us, cmd, pos, rod))
         return []
 
     # control telemetry: servo outputs, setpoints, throttle ------------------------------------
@@ -913,6 +921,7 @@ class FrameAssembler:
             oat_k=self._oat,
             surf_cmd_rad=surf[0] if surf else None, surf_pos_rad=surf[1] if surf else None,
             rod_pos_m=surf[2] if surf else None, surf_age_s=surf_age,
+            surf_new=self._take_surf() if self._surf_backlog else (),
             reset=self._next_reset_flag, gps_fix=self._gps_fix,
             primary=self._primary if self._primary is not None else 0,
             att_rate_frd_radps=self._att_rate if att_age <= stale else None,
@@ -924,6 +933,12 @@ class FrameAssembler:
         self._air_new = False
         self._next_reset_flag = False
         return f
+
+    def _take_surf(self) -> tuple[tuple[int, np.ndarray, np.ndarray, np.ndarray], ...]:
+        """The SURF samples since the previous Frame (Frame.surf_new), then none pending."""
+        out = tuple(self._surf_backlog)
+        self._surf_backlog.clear()
+        return out
 
     def _finish(self, f: Frame) -> Frame:
         """Attach the GPS velocity interpolated at ``t_us - query_lag`` (module docstring)."""

@@ -156,6 +156,10 @@ class Frame:
     surf_pos_rad: Vec | None = None
     rod_pos_m: Vec | None = None
     surf_age_s: float = float("inf")
+    # every SURF sample that arrived since the previous Frame, oldest first, as (t_us, cmd,
+    # pos, rod): with Frames slower than SURF (IMU 25 Hz, SURF 50 Hz) the latest alone
+    # would lose samples. Empty when none arrived; the surf_* fields are the newest
+    surf_new: tuple[tuple[int, Vec, Vec, Vec], ...] = ()
     # added by the assembler (telemetry room); see assembler.py for the delay conventions
     output_delay_us: int = 0  # how far behind the newest received vehicle time this frame is
     gps_fix: int = -1  # GPS_RAW_INT fix_type (-1: no GPS_RAW_INT seen); velocity needs >= 3

@@ -12,11 +12,12 @@ in one of two forms depending on what the telemetry carries:
       aileron   p_k = b u_a s + a p + c r + d
       elevator  q_k = b u_e s + a q + c f_z + d
       rudder    r_k = b u_r s + a r + c f_y + c' p + d
-      engine    f_x,k = b thr + a s + c f_z + d
+      engine    f_x,k = b lag_tau(thr) + a s + c f_z + d
 
   every right-hand term taken at the previous control sample k-1 (causal: see
   :meth:`AircraftTier._regression`), with ``s = (V / V_ref)^2``, ``f`` the specific force
-  (FRD) and ``thr`` the throttle 0..1;
+  (FRD), ``thr`` the throttle 0..1 and ``lag_tau`` a first-order lag of it (its time constant
+  the data's choice, :meth:`AircraftTier._throttle_lag`);
 * **setpoint** -- no servo outputs: the command is the attitude error the autopilot is
   correcting (NAV_CONTROLLER_OUTPUT minus ATTITUDE), a closed-loop model: roll rate against
   the bank error, pitch rate against the pitch error, yaw rate against the coordinated-turn
@@ -45,7 +46,10 @@ surface has ``kappa ~ 0`` and sits where the response says it is: with servo out
 position that explains the response, ``u + e / b`` (``b`` the reference effectiveness, ``e``
 its prediction error), averaged over the history ("stuck at zero" near neutral); without them
 the position is unobservable. ``0 < kappa < 1`` is a loss of effectiveness of ``1 - kappa``.
-The engine's loss is the thrust deficit over the reference's thrust at that throttle.
+The engine's loss is the thrust deficit over the reference's thrust at that throttle. The
+engine's model regresses on the throttle through the lag the data show among a few (its thrust
+spools up: see :meth:`AircraftTier._throttle_lag`); a deficit counts only up to the thrust the
+model gives (an engine cannot lose more).
 
 An axis steps when its command has a new sample and the response (body rates, specific force)
 has changed since its last step: a logger that repeats its last IMU sample (ALFA's 20 Hz grid
@@ -56,6 +60,7 @@ over a 2.5 Hz IMU) gives no new information, and the measured step rate is repor
 from __future__ import annotations
 
 import math
+import statistics
 from collections import deque
 from dataclasses import dataclass, field
 
@@ -81,6 +86,12 @@ from gcs_monitor.telemetry.period import SamplePeriod
 
 US_PER_S = 1_000_000
 ENGINE = 3
+# the engine models' throttle lags: these shares of ``engine_lag_max_s`` (0: no lag)
+ENGINE_LAG_SHARES = (0.0, 1.0 / 9.0, 1.0 / 3.0, 1.0)
+# another lag's model replaces the engine's when its healthy residual variance is below this
+# share of the current one's, with at least LAG_MIN_SAMPLES samples in it
+LAG_SWITCH_RATIO = 0.8
+LAG_MIN_SAMPLES = 100
 ESTIMATOR = "actuators_aircraft"
 PERIOD_REFRESH = 50  # axis steps between two re-measurements of the step period
 ESTIMATE_PERIOD_US = 100_000  # estimates (dashboard, evaluation) at most at 10 Hz
@@ -164,6 +175,28 @@ class _Check:
 
 
 @dataclass
+class _LagModel:
+    """One candidate engine lag's reference model and its healthy residual variance."""
+
+    tau_s: float
+    rls: RlsFilter
+    sigma2: float = math.nan
+    sigma_n: int = 0
+
+
+def _sigma_step(sigma2: float, sigma_n: int, err: float, dt: float, memory_s: float,
+                huber_c: float) -> tuple[float, int]:
+    """One step of a healthy residual variance: an exact mean of the squared a priori errors
+    until ``memory_s`` is reached, exponential after; an outlier counts at ``huber_c`` sigma."""
+    sigma_n += 1
+    a = max(1.0 / sigma_n, 1.0 - math.exp(-dt / memory_s))
+    e2 = err * err
+    if sigma_n > 1:
+        e2 = min(e2, huber_c * huber_c * sigma2)
+    return (e2 if sigma_n == 1 else (1.0 - a) * sigma2 + a * e2), sigma_n
+
+
+@dataclass
 class _Axis:
     """One actuator's models and FDI: the residual check on the reference model's normalised
     prediction error, the effectiveness check on the tracking model's loss of effectiveness."""
@@ -198,6 +231,11 @@ class _Axis:
     effectiveness: float = math.nan
     position_rad: float = math.nan
     command_rad: float = math.nan
+    # the engine: the throttle through each candidate lag, the model of each (the selected
+    # one's is ``ref``) and which lag is selected
+    thr_lag: list[float] = field(default_factory=list)
+    lag_models: list[_LagModel] = field(default_factory=list)
+    lag_k: int = 0
 
     @property
     def faulty(self) -> bool:
@@ -241,6 +279,9 @@ class _Axis:
         self.res = self.eff = None  # rebuilt with the new step period
         self.nu = self.z = 0.0
         self.effectiveness = self.position_rad = math.nan
+        self.thr_lag = []
+        self.lag_models = []
+        self.lag_k = 0
 
 
 class AircraftTier:
@@ -280,10 +321,13 @@ class AircraftTier:
         e = tuple(frame.euler_rad.tolist()) if frame.euler_rad is not None else None
         nan = math.nan
         hud = frame.hud
-        v = hud.airspeed_mps if hud is not None and hud.airspeed_mps > 0.0 else nan
-        if v != v:
-            cas = float(frame.cas_mps[0]) if len(frame.cas_mps) else nan
-            v = cas if math.isfinite(cas) and cas > 0.0 else nan
+        # the airspeed: the median of the pitots (one faulty pitot of three cannot move it;
+        # the autopilot's VFR_HUD airspeed is one sensor, or its own fusion of them), else
+        # VFR_HUD's, else the ground speed
+        pitots = [c for c in frame.cas_mps.tolist() if c > 0.0]  # False for NaN
+        v = statistics.median(pitots) if pitots else nan
+        if v != v and hud is not None and hud.airspeed_mps > 0.0:
+            v = hud.airspeed_mps
         if v != v and frame.gps_vel_ned_mps is not None:
             v = float(np.linalg.norm(frame.gps_vel_ned_mps))
         out = self.cfg.outputs
@@ -370,6 +414,8 @@ class AircraftTier:
             else:  # the throttle saturates as the energy error grows
                 e_max = self.cfg.model.max_energy_error_mps
                 cmd = max(-e_max, min(e_max, prev.energy_err_mps))
+            if ax.mode == SERVO:
+                cmd = self._throttle_lag(ax, cmd, s.t_us - prev.t_us)
             return s.f[0], [cmd, sq, fp[2], 1.0]
         lim = self.cfg.model.max_setpoint_error_rad
         if ax.mode == SERVO:
@@ -388,6 +434,55 @@ class AircraftTier:
         if i == 1:
             return w[1], [cmd, wp[1], fp[2], 1.0]
         return w[2], [cmd, wp[2], fp[1], wp[0], 1.0]
+
+    def _throttle_lag(self, ax: _Axis, thr: float, dt_us: int) -> float:
+        """Advance the throttle through every candidate lag; the selected one's value.
+
+        An engine's thrust follows its throttle with a lag (a turbofan spools up in seconds, a
+        propeller in a tenth): a model on the throttle alone reads a fast throttle increase as
+        a thrust deficit until the engine catches up (a shear, where the autopilot throttles
+        up hard). Each candidate lag (``ENGINE_LAG_SHARES`` of ``engine_lag_max_s``) has its
+        own reference model; the one whose healthy residual is smallest judges (:meth:`_learn`):
+        the data pick the lag. One lagged throttle per model, not several in one model: in
+        cruise they are all equal, and a model fed with them all splits their weights
+        arbitrarily and mispredicts the first throttle transient."""
+        taus = self._lags()
+        if len(ax.thr_lag) != len(taus):
+            ax.thr_lag = [thr] * len(taus)  # start in steady state
+        else:
+            dt = dt_us / US_PER_S
+            for j, tau in enumerate(taus):
+                a = math.exp(-dt / tau) if tau > 0.0 else 0.0
+                ax.thr_lag[j] = a * ax.thr_lag[j] + (1.0 - a) * thr
+        return ax.thr_lag[ax.lag_k]
+
+    def _lags(self) -> tuple[float, ...]:
+        lag_max = self.cfg.model.engine_lag_max_s
+        return tuple(f * lag_max for f in ENGINE_LAG_SHARES) if lag_max > 0.0 else (0.0,)
+
+    def _learn_lags(self, ax: _Axis, y: float, phi: list[float], dt: float, lam: float,
+                    w: float) -> None:
+        """The other lags' engine models learn the same sample (healthy flight only); the
+        best replaces the selected one when it is clearly better (``LAG_SWITCH_RATIO``)."""
+        m = self.cfg.model
+        sel = ax.lag_models[ax.lag_k]
+        sel.sigma2, sel.sigma_n = ax.sigma2, ax.sigma_n
+        best = sel
+        for k, lm in enumerate(ax.lag_models):
+            if k == ax.lag_k:
+                continue
+            phi_k = np.array((ax.thr_lag[k], *phi[1:]))
+            up = lm.rls.update(phi_k, y, lam, trace_max=m.covariance_trace_max, weight=w)
+            if ax.sigma_n:  # the same samples as the selected model's variance
+                lm.sigma2, lm.sigma_n = _sigma_step(lm.sigma2, lm.sigma_n, up.error, dt,
+                                                    m.sigma_memory_s, m.huber_c)
+            if (lm.sigma_n >= LAG_MIN_SAMPLES and lm.sigma2 < LAG_SWITCH_RATIO * sel.sigma2
+                    and (best is sel or lm.sigma2 < best.sigma2)):
+                best = lm
+        if best is not sel:
+            ax.lag_k = ax.lag_models.index(best)
+            ax.ref = best.rls
+            ax.sigma2, ax.sigma_n = best.sigma2, best.sigma_n
 
     # -- the three phases -----------------------------------------------------------------------
     def predict(self, frame: Frame) -> Signals | None:
@@ -464,6 +559,7 @@ class AircraftTier:
         if prev is None or s.t_us - prev.t_us > self.cfg.model.max_step_s * US_PER_S:
             ax.period.gap()
             ax.period.add(s.t_us)
+            ax.thr_lag = []  # the engine lags restart too, at the throttle after the gap
             return None
         ax.period.add(s.t_us)
         ax.steps += 1
@@ -478,9 +574,20 @@ class AircraftTier:
         if ax.ref is None:
             ax.ref = RlsFilter(len(phi), m.initial_covariance)
             ax.trk = RlsFilter(2, m.initial_covariance)
+            if ax.index == ENGINE and ax.mode == SERVO:
+                ax.lag_models = [_LagModel(tau, ax.ref if k == ax.lag_k else
+                                           RlsFilter(len(phi), m.initial_covariance))
+                                 for k, tau in enumerate(self._lags())]
         phi_v = np.array(phi)
         e = y - ax.ref.predict(phi_v)
         ax.e_ref = e
+        if ax.index == ENGINE and ax.mode == SERVO:
+            # an engine can lose at most the thrust it was making: with the throttle known, the
+            # part of a deficit an engine fault can explain is bounded by the model's thrust at
+            # that throttle, b thr (none at idle, none while b is not identified as positive).
+            # A larger deficit (drag and lift in wind shear with the throttle at idle) is no
+            # evidence against the engine. The models learn the unbounded error (_learn).
+            e = max(e, -max(float(ax.ref.theta[0]) * phi[0], 0.0))
         floor = m.min_accel_sigma_mps2 if ax.index == ENGINE else m.min_rate_sigma_radps
         sigma = math.sqrt(max(ax.sigma2, floor * floor)) if ax.sigma2 == ax.sigma2 else math.inf
         nu = e / sigma
@@ -584,19 +691,16 @@ class AircraftTier:
         nu = abs(ax.e_ref) / math.sqrt(ax.sigma2) if ax.sigma2 > 0.0 else 0.0
         w = huber_weight(nu, m.huber_c)
         if not freeze:
-            up = ax.ref.update(phi_v, y, math.exp(-dt / m.reference_memory_s), trace_max=tr,
-                               weight=w)
+            lam = math.exp(-dt / m.reference_memory_s)
+            up = ax.ref.update(phi_v, y, lam, trace_max=tr, weight=w)
             # the residual RMS over healthy flight, from half-way through the warm-up (the
-            # reference model's start-up errors are not its healthy level): an exact mean of
-            # the squared a priori errors until the memory is reached, exponential after
+            # reference model's start-up errors are not its healthy level)
             assert ax.prev is not None
             if ax.prev.t_us - ax.t_start_us >= 0.5 * m.warmup_s * US_PER_S:
-                ax.sigma_n += 1
-                a = max(1.0 / ax.sigma_n, 1.0 - math.exp(-dt / m.sigma_memory_s))
-                e2 = up.error * up.error
-                if ax.sigma_n > 1:  # Huber: an outlier counts at c sigma
-                    e2 = min(e2, m.huber_c * m.huber_c * ax.sigma2)
-                ax.sigma2 = e2 if ax.sigma_n == 1 else (1.0 - a) * ax.sigma2 + a * e2
+                ax.sigma2, ax.sigma_n = _sigma_step(ax.sigma2, ax.sigma_n, up.error, dt,
+                                                    m.sigma_memory_s, m.huber_c)
+            if len(ax.lag_models) > 1:
+                self._learn_lags(ax, y, phi, dt, lam, w)
 
         b_ref = float(ax.ref.theta[0])
         ax.effectiveness = 1.0 + float(ax.trk.theta[0]) / b_ref if abs(b_ref) > 1e-9 \
@@ -682,8 +786,8 @@ class AircraftTier:
                 loss = min(1.0, max(0.0, deficit / thrust)) if thrust > 1e-9 else math.nan
                 what = "engine out" if loss >= 0.8 else f"{100 * loss:.0f} % of thrust lost"
                 return (FaultType.LOSS_OF_EFFECTIVENESS, loss,
-                        f"engine: {what} (thrust deficit {deficit:.2f} m/s^2 at throttle "
-                        f"{float(np.mean(x)):.2f})")
+                        f"engine: {what} (thrust deficit {deficit:.2f} m/s^2 of the "
+                        f"{thrust:.2f} m/s^2 its model gives at this throttle)")
             return (FaultType.LOSS_OF_EFFECTIVENESS, math.nan,
                     f"engine: thrust deficit {deficit:.2f} m/s^2 against the energy the "
                     f"autopilot asks for (no throttle: loss not quantified)")

@@ -105,6 +105,11 @@ class ModelConfig:
                                         "clipped here (the throttle saturates)", positive=True)
     max_step_s: float = param(1.0, "a longer gap between two control samples restarts the "
                               "models' lagged terms", positive=True)
+    engine_lag_max_s: float = param(3.6, "the engine's thrust follows its throttle with a lag "
+                                    "(a turbofan spools up in seconds, a propeller in a "
+                                    "tenth): with servo outputs, engine models on the "
+                                    "throttle through lags of 0, 1/9, 1/3 and 1 x this learn "
+                                    "side by side and the best fit judges; 0: no lag")
 
 
 @dataclass(frozen=True, slots=True)

@@ -184,12 +184,16 @@ class ServoPrediction:
 
     new : the Frame carried a new SURF sample and the filters stepped on it
     rows : (3, N_OUT) per surface the filters' output row (``servo_filters.O_*``)
+    earlier : the rows of the Frame's earlier SURF samples (Frames slower than SURF)
     reinit : why the filters (re)started on this sample ("" when they stepped)
     """
 
     new: bool
     rows: np.ndarray | None = None
     reinit: str = ""
+    # the output rows (as Python floats) of the SURF samples this Frame brought before its
+    # newest one (Frame.surf_new), oldest first: judged before ``rows``
+    earlier: tuple[list[list[float]], ...] = ()
 
 
 NO_SAMPLE = ServoPrediction(False)  # the Frames without a new SURF sample (most of them)
@@ -390,14 +394,36 @@ class ServoTier:
 
     # -- predict ---------------------------------------------------------------------------------
     def predict(self, frame: Frame) -> ServoPrediction:
-        """Both filters of every surface on a new SURF sample (module docstring)."""
-        cmd, pos, rod = frame.surf_cmd_rad, frame.surf_pos_rad, frame.rod_pos_m
-        if cmd is None or pos is None or rod is None:
-            return NO_SAMPLE
-        t_s = frame.t_us - round(frame.surf_age_s * US_PER_S)
+        """Both filters of every surface on each new SURF sample of the Frame, oldest first
+        (module docstring): a Frame slower than SURF brings several (``Frame.surf_new``), and
+        every one is stepped on and judged; none is skipped."""
+        if frame.surf_new:
+            samples = frame.surf_new
+        else:  # a Frame made without the backlog (tests, tools): its newest sample
+            cmd, pos, rod = frame.surf_cmd_rad, frame.surf_pos_rad, frame.rod_pos_m
+            if cmd is None or pos is None or rod is None:
+                return NO_SAMPLE
+            samples = ((frame.t_us - round(frame.surf_age_s * US_PER_S), cmd, pos, rod),)
+        pred = NO_SAMPLE
+        earlier: list[list[list[float]]] = []
+        for t_s, cmd, pos, rod in samples:
+            last = self._last_us
+            if last is not None and t_s <= last:
+                continue
+            if pred.rows is not None:
+                earlier.append(self._row_lists)
+            elif pred.new:  # a restart: what came before it is not judged
+                earlier.clear()
+            pred = self._step_sample(frame.t_us, t_s, cmd, pos, rod)
+        if earlier and pred.rows is not None:
+            return ServoPrediction(True, pred.rows, earlier=tuple(earlier))
+        return pred
+
+    def _step_sample(self, t_us: int, t_s: int, cmd: np.ndarray, pos: np.ndarray,
+                     rod: np.ndarray) -> ServoPrediction:
+        """Both filters of every surface on one new SURF sample of time ``t_s`` (Frame time
+        ``t_us``)."""
         last = self._last_us
-        if last is not None and t_s <= last:
-            return NO_SAMPLE
         self._seen = True
         self._last_us = t_s
         self._period.add(t_s)
@@ -430,7 +456,7 @@ class ServoTier:
                 acc[0] += p_k * q_k
                 acc[1] += q_k * q_k
                 acc[2] += 1
-        self._est_t_us = frame.t_us  # estimates made in update(), from the same rows
+        self._est_t_us = t_us  # estimates made in update(), from the same rows
         return ServoPrediction(True, rows)
 
     def _restart(self, t_s_us: int, why: str) -> None:
@@ -474,10 +500,11 @@ class ServoTier:
             return Verdict(FamilyStatus(self.name, t, False, reason=self._misfit))
         verdict = Verdict(FamilyStatus(self.name, t, True))
         statuses = verdict.channels if self.ctx.statuses else None
-        for fdi, row in zip(self._fdi, self._row_lists, strict=True):
-            ev = fdi.step(t, row, statuses)
-            if ev:
-                verdict.events += ev
+        for rows in (*prediction.earlier, self._row_lists):
+            for fdi, row in zip(self._fdi, rows, strict=True):
+                ev = fdi.step(t, row, statuses)
+                if ev:
+                    verdict.events += ev
         return verdict
 
     def _check_lever(self) -> str:

@@ -63,8 +63,10 @@ class YawRateFamilyConfig:
                             "first starts (it starts at the measurement: the start-up transient "
                             "stays below the fault-free level, docs/results.md; 2 s fill the "
                             "RMS window and the equivalent-injection filter)", positive=True)
-    max_gap_s: float = param(0.5, "an input missing longer than this restarts the observer "
-                             "(explicit Euler cannot step across it)", positive=True)
+    max_gap_s: float = param(0.06, "an input missing longer than this (3 observer steps) "
+                             "re-anchors the observer: its explicit Euler step is stable at "
+                             "the design step, not across a gap (a 0.38 s link burst stepped "
+                             "across raised a false 0.6 deg/s fault)", positive=True)
     reanchor_s: float = param(5.0, "after a gap up to this long on the same IMU the observer "
                               "restarts from the measurement corrected by its last fault "
                               "estimate, which it keeps; after a longer gap or on another IMU, "

@@ -47,6 +47,12 @@ def _same(f1, f2) -> bool:
         elif dataclasses.is_dataclass(a) or dataclasses.is_dataclass(b):
             if repr(a) != repr(b):  # control samples hold NaN for unused servo outputs
                 return False
+        elif fld.name == "surf_new":  # (t_us, cmd, pos, rod) per SURF sample
+            if len(a) != len(b) or any(
+                    x[0] != y[0] or not all(np.array_equal(u, v, equal_nan=True)
+                                            for u, v in zip(x[1:], y[1:], strict=True))
+                    for x, y in zip(a, b, strict=True)):
+                return False
         elif fld.name == "imu":
             if [s.t_us if s else None for s in a] != [s.t_us if s else None for s in b]:
                 return False

@@ -320,6 +320,44 @@ def test_whole_mavlink_path_names_a_liquid_jam() -> None:
     assert last.magnitude == pytest.approx(0.02, abs=2e-3)
 
 
+def test_frames_slower_than_surf_lose_no_sample() -> None:
+    """Frames at 25 Hz (HIGHRES_IMU and ATTITUDE kept at every fourth 100 Hz instant), SURF at
+    50 Hz: every SURF sample reaches the tier (Frame.surf_new) and is stepped on -- the tier
+    measures the 50 Hz SURF period, not the Frames' 25 Hz -- and scenario 3's liquid jam on the
+    elevator is named as at 100 Hz, with no other sensor or actuator alarm."""
+    from gcs_monitor.monitor import Monitor
+    from sim_vehicle.run import iter_packets
+    from sim_vehicle.scenario import load_scenario
+
+    sc = dataclasses.replace(load_scenario("lu2017_s3"), duration_s=14.0)
+    tiers: list[ServoTier] = []
+
+    def families(ctx: FamilyContext) -> list[ServoTier]:
+        tiers.append(ServoTier(ServoTierConfig(), ctx))
+        return tiers[-1:]
+
+    mon = Monitor(families_for=families)
+    n_surf = 0
+    for t_us, pkt in iter_packets(sc):
+        msg_id = int.from_bytes(pkt[7:10], "little")  # MAVLink 2 header
+        if msg_id in (105, 30) and round(t_us / 10_000) % 4:  # HIGHRES_IMU, ATTITUDE
+            continue
+        n_surf += msg_id == 350 and b"SURF" in pkt  # DEBUG_FLOAT_ARRAY
+        mon.feed(pkt)
+    mon.finish()
+    (tier,) = tiers
+    assert n_surf > 600
+    assert mon.vehicles[1].pipeline is not None
+    assert mon.vehicles[1].pipeline.frames == pytest.approx(14.0 * 25, abs=3)
+    assert tier.period_s == pytest.approx(0.02)
+    # the dropped packets are sequence gaps: a link alarm is right, and the only other one
+    raised = [e for e in mon.events if e.state is AlarmState.RAISED
+              and e.kind is not AlarmKind.LINK]
+    assert [(e.channel.instance, e.channel.axis) for e in raised] == [(1, "output")]
+    last = [x for x in mon.events if x.channel == raised[0].channel][-1]
+    assert case_of(last) == "liquid_jam"
+
+
 def test_a_servo_model_of_another_airframe_is_not_judged_and_says_why() -> None:
     """The telemetry's lever (surface over rod position, 1.4 rad/m here) against a configured
     one 3.6x larger (the UAV's): the tier does not judge after its warm-up and says what to set,
