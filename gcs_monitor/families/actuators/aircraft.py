@@ -92,6 +92,9 @@ ENGINE_LAG_SHARES = (0.0, 1.0 / 9.0, 1.0 / 3.0, 1.0)
 # share of the current one's, with at least LAG_MIN_SAMPLES samples in it
 LAG_SWITCH_RATIO = 0.8
 LAG_MIN_SAMPLES = 100
+# after a telemetry gap the engine is judged again after this many of its lag's time constants
+# (the throttle in the gap is unknown; 3 time constants leave 5 % of its effect)
+LAG_SETTLE = 3.0
 ESTIMATOR = "actuators_aircraft"
 PERIOD_REFRESH = 50  # axis steps between two re-measurements of the step period
 ESTIMATE_PERIOD_US = 100_000  # estimates (dashboard, evaluation) at most at 10 Hz
@@ -236,6 +239,7 @@ class _Axis:
     thr_lag: list[float] = field(default_factory=list)
     lag_models: list[_LagModel] = field(default_factory=list)
     lag_k: int = 0
+    settle_us: int = -1  # after a gap the engine is not judged before this time
 
     @property
     def faulty(self) -> bool:
@@ -282,6 +286,7 @@ class _Axis:
         self.thr_lag = []
         self.lag_models = []
         self.lag_k = 0
+        self.settle_us = -1
 
 
 class AircraftTier:
@@ -559,7 +564,13 @@ class AircraftTier:
         if prev is None or s.t_us - prev.t_us > self.cfg.model.max_step_s * US_PER_S:
             ax.period.gap()
             ax.period.add(s.t_us)
-            ax.thr_lag = []  # the engine lags restart too, at the throttle after the gap
+            if ax.thr_lag and ax.lag_models:
+                # the engine lags restart too, at the throttle after the gap; what the
+                # throttle did in the gap is unknown, and the engine still follows it for a
+                # few of its time constants: not judged, not learnt, until that has passed
+                tau = ax.lag_models[ax.lag_k].tau_s
+                ax.settle_us = s.t_us + round(LAG_SETTLE * tau * US_PER_S)
+            ax.thr_lag = []
             return None
         ax.period.add(s.t_us)
         ax.steps += 1
@@ -569,6 +580,9 @@ class AircraftTier:
         y, phi = self._regression(ax, s, prev)
         if not (math.isfinite(y) and all(map(math.isfinite, phi))):
             reasons.append(f"{ax.channel.axis}: inputs not finite")
+            return None
+        if s.t_us < ax.settle_us:
+            reasons.append(f"{ax.channel.axis}: the engine settles after a telemetry gap")
             return None
         m = self.cfg.model
         if ax.ref is None:
