@@ -159,7 +159,7 @@ def test_the_airspeed_reference_is_never_zero():
 
 
 def _engine_frames(duration_s: float, *, tau_s: float, out_at_s: float | None = None,
-                   seed: int = 0):
+                   seed: int = 0, throttle=None):
     """Frames of an engine whose thrust follows the throttle through a first-order lag of
     ``tau_s`` (f_x = 2 thrust - 1 m/s^2, thrust = lag(throttle)), the throttle stepping between
     0.3 and 0.8 every 4 s; the engine delivers nothing from ``out_at_s``."""
@@ -171,7 +171,7 @@ def _engine_frames(duration_s: float, *, tau_s: float, out_at_s: float | None = 
         t_us = round(t * 1e6)
         acting = 0.0 if out_at_s is not None and t >= out_at_s else thr
         thrust = a * thrust + (1.0 - a) * acting
-        thr = 0.3 if int(t / 4.0) % 2 == 0 else 0.8
+        thr = throttle(t) if throttle else (0.3 if int(t / 4.0) % 2 == 0 else 0.8)
         fx = 2.0 * thrust - 1.0 + 0.01 * rng.standard_normal()
         w = 0.002 * rng.standard_normal(3)
         pwm = (1500.0, 1500.0, 1500.0, 1000.0 + 1000.0 * thr) + (math.nan,) * 12
@@ -222,3 +222,25 @@ def test_a_link_outage_restarts_the_engine_lags():
     frames = [f for f in _engine_frames(70.0, tau_s=1.5) if not 39.0 <= f.t_us * 1e-6 < 42.0]
     events, _ = _run(tier, frames)
     assert not [e for e in events if e.kind is AlarmKind.ACTUATOR_FAULT]
+
+
+def test_after_a_gap_the_engine_settles_before_it_is_judged():
+    """The throttle dips to 0.2 inside a 3 s telemetry gap and is at 0.9 when the link
+    returns: the engine (1.5 s lag) is still spooling up, a deficit no model of the throttle
+    seen can explain. The engine is not judged for three of its lag's time constants after the
+    gap (a live soak's false engine alarm), and is judged again after them."""
+    def thr(t: float) -> float:
+        if 40.0 <= t < 41.8:
+            return 0.2
+        if 41.8 <= t < 46.0:
+            return 0.9
+        return 0.3 if int(t / 4.0) % 2 == 0 else 0.8
+
+    tier = _tier()
+    frames = [f for f in _engine_frames(70.0, tau_s=1.5, throttle=thr)
+              if not 39.0 <= f.t_us * 1e-6 < 42.0]
+    events, statuses = _run(tier, frames)
+    assert not [e for e in events if e.kind is AlarmKind.ACTUATOR_FAULT]
+    eng = tier.axes[3]
+    assert eng.settle_us == pytest.approx(42.0e6 + 3.0 * 1.2e6, abs=0.05e6)
+    assert eng.judged  # judged again by the end
