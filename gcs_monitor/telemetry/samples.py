@@ -107,20 +107,23 @@ class ImuChord:
     t0_us: int
     t1_us: int
     t_us: tuple[int, ...]
-    dv: np.ndarray
+    dv: tuple[tuple[float, float, float], ...]
     mean_acc: tuple[float, float, float]  # NED m/s^2, mean over the interval
 
     def error_at(self, t_us: int) -> Vec3:
         """``e(tau) = tau a_mean - integral_0^tau a ds``: the linear interpolation between the
-        interval's end samples minus the velocity the IMU integrates to at ``t_us``, NED m/s."""
+        interval's end samples minus the velocity the IMU integrates to at ``t_us``, NED m/s
+        (Python floats: called at every frame)."""
         ts = self.t_us
         k = bisect.bisect_right(ts, t_us) - 1
         k = min(max(k, 0), len(ts) - 2)
         w = (t_us - ts[k]) / (ts[k + 1] - ts[k])
-        dv = self.dv[k] + w * (self.dv[k + 1] - self.dv[k])
+        p, q = self.dv[k], self.dv[k + 1]
         tau = (t_us - self.t0_us) * 1e-6
         a = self.mean_acc
-        return np.array((tau * a[0] - dv[0], tau * a[1] - dv[1], tau * a[2] - dv[2]))
+        return np.array((tau * a[0] - (p[0] + w * (q[0] - p[0])),
+                         tau * a[1] - (p[1] + w * (q[1] - p[1])),
+                         tau * a[2] - (p[2] + w * (q[2] - p[2]))))
 
 
 def imu_chord(t_us: Sequence[int], acc_ned_mps2: np.ndarray, t0_us: int,
@@ -157,5 +160,6 @@ def imu_chord(t_us: Sequence[int], acc_ned_mps2: np.ndarray, t0_us: int,
     c0 = np.array([np.interp(t0_us * 1e-6, ts, cum[:, i]) for i in range(3)])
     c1 = np.array([np.interp(t1_us * 1e-6, ts, cum[:, i]) for i in range(3)])
     mean = (c1 - c0) / ((t1_us - t0_us) * 1e-6)
-    return ImuChord(t0_us, t1_us, tuple(int(t) for t in t_us), cum - c0,
+    dv = tuple((float(r[0]), float(r[1]), float(r[2])) for r in (cum - c0).tolist())
+    return ImuChord(t0_us, t1_us, tuple(int(t) for t in t_us), dv,
                     (float(mean[0]), float(mean[1]), float(mean[2])))
