@@ -4,6 +4,12 @@ Consumes Frames (primary IMU ``imu[cfg.imu_instance]``, ATTITUDE Euler angles, G
 interpolated to the IMU time, latitude/altitude) and returns an Estimate with the velocity and
 attitude, the six IMU fault estimates f_hat, the corrected IMU ``u_m - f_hat`` (Lu2016 eq. 60)
 and the innovations as residuals.
+
+Between GPS samples the interpolated velocity is corrected by the interpolation error the
+assembler measures from the IMU (``Frame.gps_interp_err_ned_mps``, ``gps_imu_shape``; ours):
+Lu2016 sec. 5 interpolates 1 Hz GPS linearly, whose error in a manoeuvre the filter would read
+as an accelerometer fault (docs/papers-notes.md, "Sec. 5: the GPS velocity between 1 Hz
+samples").
 """
 
 from __future__ import annotations
