@@ -207,6 +207,66 @@ def rate_sweep(out: Path, jobs: int = 2, quick: bool = False) -> str:
 
 
 # ------------------------------------------------------------------------------------------------
+# fault-free IMU fault estimates against the GPS rate
+# ------------------------------------------------------------------------------------------------
+
+ACCURACY_PRESET = "demo_airdata_faults"  # manoeuvres, air-data faults only: f_hat is all error
+ACCURACY_IMU_AIR_HZ = (100.0, 20.0)
+
+
+def _with_gps_imu_shape(cfg: MonitorConfig, on: bool) -> MonitorConfig:
+    imu = cfg.families["imu"]
+    est = dataclasses.replace(imu.ts.estimator, gps_imu_shape=on)
+    fam = dataclasses.replace(imu, ts=dataclasses.replace(imu.ts, estimator=est))
+    return dataclasses.replace(cfg, families={**cfg.families, "imu": fam})
+
+
+def _accuracy_job(job: tuple[float, bool, float]) -> list[float]:
+    """RMS and max |f_hat| of imu_ts's accelerometer channels (x, y, z; m/s^2) after the
+    family's warm-up, on a flight without IMU faults."""
+    gps_hz, shape, duration = job
+    imu_hz, air_hz = ACCURACY_IMU_AIR_HZ
+    sc = _with_rates(preset(ACCURACY_PRESET, duration_s=duration if duration > 0 else None),
+                     imu_hz, air_hz, gps_hz)
+    cfg = _with_gps_imu_shape(MonitorConfig(), shape)
+    warm_us = round(cfg.families["imu"].warmup_s * 1e6)
+    f: list[list[float]] = []
+
+    def on_step(sysid: int, frame: Any, out: StepOutput) -> None:
+        for e in out.estimates:
+            if e.name == "imu_ts" and e.numerics_ok and e.faults and frame.t_us >= warm_us:
+                f.append(list(e.faults.values())[:3])
+
+    feed_packets(Monitor(cfg, on_step=on_step), (pkt for _, _, pkt in iter_run(sc)))
+    if not f:
+        return [math.nan] * 6
+    cols = list(zip(*f, strict=True))
+    return ([math.sqrt(math.fsum(x * x for x in c) / len(c)) for c in cols]
+            + [max(abs(x) for x in c) for c in cols])
+
+
+def gps_rate_accuracy(out: Path, jobs: int = 2, quick: bool = False) -> str:
+    """imu_ts's accelerometer fault estimates on the demo flight (no IMU fault) at GPS 1 / 5 /
+    10 Hz (IMU 100 Hz, air data 20 Hz), with and without the IMU-measured interpolation error
+    taken out of the GPS velocity (``gps_imu_shape``): how the estimate's accuracy depends on
+    the GPS rate (issue 15)."""
+    duration = 30.0 if quick else 0.0
+    job_list = [(g, shape, duration) for g in GPS_HZ for shape in (False, True)]
+    res = run_parallel(_accuracy_job, job_list, jobs, desc="gps rate accuracy")
+    header = ["GPS Hz", "gps_imu_shape", "RMS f_Ax", "RMS f_Ay", "RMS f_Az", "max abs f_Ax",
+              "max abs f_Ay", "max abs f_Az"]
+    rows = [[f"{g:g}", "on" if shape else "off", *(f"{v:.3f}" for v in r)]
+            for (g, shape, _), r in zip(job_list, res, strict=True)]
+    out.mkdir(parents=True, exist_ok=True)
+    write_csv(out / "gps_rate_accuracy.csv", header, rows)
+    imu_hz, air_hz = ACCURACY_IMU_AIR_HZ
+    return (f"imu_ts accelerometer fault estimates (m/s^2) on `{ACCURACY_PRESET}` (no IMU fault)"
+            f" at IMU {imu_hz:g} Hz, air data {air_hz:g} Hz, after the "
+            f"{MonitorConfig().families['imu'].warmup_s:g} s warm-up; default configuration "
+            "but for gps_imu_shape.\n\n" + md_table(header, rows))
+
+
+# ------------------------------------------------------------------------------------------------
 # weather the monitor was not told about
 # ------------------------------------------------------------------------------------------------
 
@@ -309,6 +369,7 @@ def triplex_weather(out: Path, jobs: int = 2, quick: bool = False) -> str:
 
 def experiments() -> dict[str, Callable[[Path, int, bool], str]]:
     return {"rate_sweep": rate_sweep,
+            "gps_rate_accuracy": gps_rate_accuracy,
             "presets_weather": presets_without_declared_weather,
             "wan2018_campaign_weather": wan2018_campaign_weather,
             "triplex_weather": triplex_weather}
