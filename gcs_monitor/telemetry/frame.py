@@ -136,6 +136,10 @@ class Frame:
     # query instant), i.e. a measurement of t_us - gps_age_s, not of t_us
     gps_held: bool = False
     gps_period_s: float = float("nan")  # measured GPS period (median interval), s
+    # interpolated GPS velocity minus the velocity the IMU integrates to across the bracketing
+    # GPS interval (samples.imu_chord): the interpolation error in a manoeuvre, NED m/s; None
+    # when not interpolated or the IMU and attitude do not cover the interval
+    gps_interp_err_ned_mps: Vec3 | None = None
     lat_rad: float = float("nan")
     lon_rad: float = float("nan")
     alt_msl_m: float = float("nan")

@@ -44,6 +44,7 @@ from gcs_monitor.fdi.events import AlarmEvent, AlarmKind, AlarmState
 from gcs_monitor.fdi.metrics import MetricsRow
 from gcs_monitor.fdi.records import StepOutput
 from gcs_monitor.monitor import Monitor
+from sim_vehicle.faults.profiles import FaultInjector
 from sim_vehicle.run import iter_run
 from sim_vehicle.scenario import Scenario, list_presets
 
@@ -207,6 +208,112 @@ def rate_sweep(out: Path, jobs: int = 2, quick: bool = False) -> str:
 
 
 # ------------------------------------------------------------------------------------------------
+# fault-free IMU fault estimates against the GPS rate
+# ------------------------------------------------------------------------------------------------
+
+ACCURACY_PRESET = "demo_airdata_faults"  # manoeuvres, air-data faults only: f_hat is all error
+ACCURACY_IMU_AIR_HZ = (100.0, 20.0)
+
+
+def _with_gps_imu_shape(cfg: MonitorConfig, on: bool) -> MonitorConfig:
+    imu = cfg.families["imu"]
+    est = dataclasses.replace(imu.ts.estimator, gps_imu_shape=on)
+    fam = dataclasses.replace(imu, ts=dataclasses.replace(imu.ts, estimator=est))
+    return dataclasses.replace(cfg, families={**cfg.families, "imu": fam})
+
+
+def _accuracy_job(job: tuple[float, bool, float]) -> list[float]:
+    """RMS and max |f_hat| of imu_ts's accelerometer channels (x, y, z; m/s^2) after the
+    family's warm-up, on a flight without IMU faults."""
+    gps_hz, shape, duration = job
+    imu_hz, air_hz = ACCURACY_IMU_AIR_HZ
+    sc = _with_rates(preset(ACCURACY_PRESET, duration_s=duration if duration > 0 else None),
+                     imu_hz, air_hz, gps_hz)
+    cfg = _with_gps_imu_shape(MonitorConfig(), shape)
+    warm_us = round(cfg.families["imu"].warmup_s * 1e6)
+    f: list[list[float]] = []
+
+    def on_step(sysid: int, frame: Any, out: StepOutput) -> None:
+        for e in out.estimates:
+            if e.name == "imu_ts" and e.numerics_ok and e.faults and frame.t_us >= warm_us:
+                f.append(list(e.faults.values())[:3])
+
+    feed_packets(Monitor(cfg, on_step=on_step), (pkt for _, _, pkt in iter_run(sc)))
+    if not f:
+        return [math.nan] * 6
+    cols = list(zip(*f, strict=True))
+    return ([math.sqrt(math.fsum(x * x for x in c) / len(c)) for c in cols]
+            + [max(abs(x) for x in c) for c in cols])
+
+
+RMSE_PRESET = "lu2016_turbulence"  # Lu2016 Table 2 faults on all six channels, 10-30 s
+RMSE_WINDOW_S = (10.5, 30.0)  # the first 0.5 s is the response to the 3 m/s^2, 3 deg/s steps
+_IMU_FAULT_CHANNELS = ("imu0.acc.x", "imu0.acc.y", "imu0.acc.z", "imu0.gyro.p", "imu0.gyro.q",
+                       "imu0.gyro.r")
+
+
+def _rmse_job(job: tuple[float, bool]) -> list[float]:
+    """RMSE of imu_ts's six fault estimates against the injected Lu2016 Table 2 faults over
+    :data:`RMSE_WINDOW_S` (acc m/s^2, gyro rad/s)."""
+    gps_hz, shape = job
+    imu_hz, air_hz = ACCURACY_IMU_AIR_HZ
+    sc = _with_rates(preset(RMSE_PRESET), imu_hz, air_hz, gps_hz)
+    inj = FaultInjector(tuple(sc.faults), sc.seed)
+    t0_us, t1_us = (round(x * 1e6) for x in RMSE_WINDOW_S)
+    sq = [0.0] * 6
+    n = 0
+
+    def on_step(sysid: int, frame: Any, out: StepOutput) -> None:
+        nonlocal n
+        if not t0_us < frame.t_us < t1_us:
+            return
+        for e in out.estimates:
+            if e.name == "imu_ts" and e.numerics_ok and e.faults:
+                t_s = frame.t_us * 1e-6
+                for i, (c, f) in enumerate(zip(_IMU_FAULT_CHANNELS, e.faults.values(),
+                                               strict=True)):
+                    sq[i] += (f - inj.apply(c, t_s, 0.0, 0.0)) ** 2
+                n += 1
+
+    cfg = _with_gps_imu_shape(MonitorConfig(), shape)
+    feed_packets(Monitor(cfg, on_step=on_step), (pkt for _, _, pkt in iter_run(sc)))
+    return [math.sqrt(x / n) if n else math.nan for x in sq]
+
+
+def gps_rate_accuracy(out: Path, jobs: int = 2, quick: bool = False) -> str:
+    """imu_ts's accelerometer fault estimates on the demo flight (no IMU fault) at GPS 1 / 5 /
+    10 Hz (IMU 100 Hz, air data 20 Hz), with and without the IMU-measured interpolation error
+    taken out of the GPS velocity (``gps_imu_shape``): how the estimate's accuracy depends on
+    the GPS rate (issue 15)."""
+    duration = 30.0 if quick else 0.0
+    job_list = [(g, shape, duration) for g in GPS_HZ for shape in (False, True)]
+    res = run_parallel(_accuracy_job, job_list, jobs, desc="gps rate accuracy")
+    header = ["GPS Hz", "gps_imu_shape", "RMS f_Ax", "RMS f_Ay", "RMS f_Az", "max abs f_Ax",
+              "max abs f_Ay", "max abs f_Az"]
+    rows = [[f"{g:g}", "on" if shape else "off", *(f"{v:.3f}" for v in r)]
+            for (g, shape, _), r in zip(job_list, res, strict=True)]
+    out.mkdir(parents=True, exist_ok=True)
+    write_csv(out / "gps_rate_accuracy.csv", header, rows)
+    rjobs = [(g, shape) for g in GPS_HZ for shape in (False, True)]
+    rres = run_parallel(_rmse_job, rjobs, jobs, desc="gps rate rmse")
+    rheader = ["GPS Hz", "gps_imu_shape", "RMSE f_Ax", "RMSE f_Ay", "RMSE f_Az", "RMSE f_p",
+               "RMSE f_q", "RMSE f_r"]
+    rrows = [[f"{g:g}", "on" if shape else "off", *(f"{v:.3f}" for v in r[:3]),
+              *(f"{math.degrees(v):.3f}" for v in r[3:])]
+             for (g, shape), r in zip(rjobs, rres, strict=True)]
+    write_csv(out / "gps_rate_rmse.csv", rheader, rrows)
+    imu_hz, air_hz = ACCURACY_IMU_AIR_HZ
+    w0, w1 = RMSE_WINDOW_S
+    return (f"imu_ts accelerometer fault estimates (m/s^2) on `{ACCURACY_PRESET}` (no IMU fault)"
+            f" at IMU {imu_hz:g} Hz, air data {air_hz:g} Hz, after the "
+            f"{MonitorConfig().families['imu'].warmup_s:g} s warm-up; default configuration "
+            "but for gps_imu_shape.\n\n" + md_table(header, rows)
+            + f"\n\nFault reconstruction on `{RMSE_PRESET}` (Lu2016 Table 2 faults), RMSE of "
+            f"f_hat against the injected fault over {w0:g}-{w1:g} s (acc m/s^2, gyro deg/s), "
+            "same rates:\n\n" + md_table(rheader, rrows))
+
+
+# ------------------------------------------------------------------------------------------------
 # weather the monitor was not told about
 # ------------------------------------------------------------------------------------------------
 
@@ -358,6 +465,7 @@ def triplex_actuators(out: Path, jobs: int = 2, quick: bool = False) -> str:
 def experiments() -> dict[str, Callable[[Path, int, bool], str]]:
     return {"rate_sweep": rate_sweep,
             "triplex_actuators": triplex_actuators,
+            "gps_rate_accuracy": gps_rate_accuracy,
             "presets_weather": presets_without_declared_weather,
             "wan2018_campaign_weather": wan2018_campaign_weather,
             "triplex_weather": triplex_weather}

@@ -4,6 +4,12 @@ Consumes Frames (primary IMU ``imu[cfg.imu_instance]``, ATTITUDE Euler angles, G
 interpolated to the IMU time, latitude/altitude) and returns an Estimate with the velocity and
 attitude, the six IMU fault estimates f_hat, the corrected IMU ``u_m - f_hat`` (Lu2016 eq. 60)
 and the innovations as residuals.
+
+Between GPS samples the interpolated velocity is corrected by the interpolation error the
+assembler measures from the IMU (``Frame.gps_interp_err_ned_mps``, ``gps_imu_shape``; ours):
+Lu2016 sec. 5 interpolates 1 Hz GPS linearly, whose error in a manoeuvre the filter would read
+as an accelerometer fault (docs/papers-notes.md, "Sec. 5: the GPS velocity between 1 Hz
+samples").
 """
 
 from __future__ import annotations
@@ -130,6 +136,12 @@ class ImuTsConfig:
     max_held_gps_age_s: float = param(0.1, "a GPS velocity held past its sample (no later "
                                       "sample to interpolate towards) is not used beyond this "
                                       "age (its error is |dv/dt| x age)", positive=True)
+    gps_imu_shape: bool = param(True, "between GPS samples the interpolated velocity follows "
+                                "the IMU-integrated velocity's deviation from its chord "
+                                "(telemetry/samples.py imu_chord): a GPS slower than the IMU "
+                                "does not turn the manoeuvre inside its interval into an "
+                                "accelerometer fault (ours; Lu2016 sec. 5 interpolates "
+                                "linearly)")
     max_gps_gap_s: float = param(1.0, "a GPS velocity missing for up to this long after the "
                                  "last one used (a lost, late or repeated GPS sample) is "
                                  "bridged: the states are propagated with the IMU alone (the "
@@ -435,6 +447,9 @@ class ImuTwoStageEstimator:
                 return None
             if frame.gps_held and frame.gps_age_s > cfg.max_held_gps_age_s:
                 return None
+            err = frame.gps_interp_err_ned_mps
+            if err is not None and cfg.gps_imu_shape:
+                v = v - err
             return np.concatenate([v, eul])
         cas, aoa, ssa = float(frame.cas_mps[0]), float(frame.aoa_rad[0]), frame.ssa_rad
         fresh = frame.air_age_s <= cfg.max_air_age_s or (

@@ -23,9 +23,9 @@ NAMES = {
     "chen2020_roll_rate", "chen2020_identify", "chen2020_tuning", "chen2020_uav",
     # issue 15: never blind, never fooled
     "rate_sweep", "presets_weather", "triplex_weather", "wan2018_campaign_weather",
-    "real_flights",
+    "real_flights", "gps_rate_accuracy",
     "lu2017", "lu2017_calibration", "lu2017_campaign",  # added with the actuator family
-    "actuators_sim", "actuators_alfa",
+    "actuators_sim", "actuators_alfa", "triplex_actuators",
 }
 
 

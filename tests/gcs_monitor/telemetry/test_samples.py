@@ -1,4 +1,5 @@
-"""interpolate_gps on hand-made samples: weights, hold, gap and start-of-data rules."""
+"""interpolate_gps on hand-made samples: weights, hold, gap and start-of-data rules; imu_chord
+(the interpolation error the IMU measures) on hand-derived accelerations."""
 
 from __future__ import annotations
 
@@ -6,7 +7,7 @@ import math
 
 import numpy as np
 
-from gcs_monitor.telemetry.samples import gps_sample, interpolate_gps
+from gcs_monitor.telemetry.samples import gps_sample, imu_chord, interpolate_gps
 
 RING = [gps_sample(1_000_000, 10.0, 0.0, 1.0, 0.1, 0.2, 100.0),
         gps_sample(1_100_000, 12.0, -1.0, 0.0, 0.1, 0.2, 101.0),
@@ -44,3 +45,49 @@ def test_before_the_first_sample_and_empty():
     assert interpolate_gps(RING, 999_999, BIG, BIG).vel_ned_mps is None
     q = interpolate_gps([], 5, BIG, BIG)
     assert q.vel_ned_mps is None and q.age_s == math.inf and q.base is None
+
+
+def test_bracketing_pair_is_returned():
+    q = interpolate_gps(RING, 1_025_000, BIG, BIG)
+    assert q.base is RING[0] and q.upper is RING[1]
+    assert interpolate_gps(RING, 1_250_000, BIG, BIG).upper is None  # held
+
+
+# 100 Hz IMU samples over a 1 s GPS interval [2 s, 3 s]
+T_US = list(range(2_000_000, 3_000_001, 10_000))
+
+
+def _acc(fn):
+    t = (np.array(T_US) - 2_000_000) * 1e-6
+    return np.stack([fn(t), np.zeros_like(t), -fn(t)], axis=1)
+
+
+def test_chord_error_of_a_constant_jerk_by_hand():
+    # a = j tau (j = 2 m/s^3): v = j tau^2 / 2, chord slope j T / 2 = 1 m/s^2, so
+    # e(tau) = tau * 1 - tau^2 = j tau (T - tau) / 2: 0.25 m/s at mid-interval, 0.1875 at 0.25 s,
+    # zero at both samples (the trapezoid is exact on a linear acceleration)
+    c = imu_chord(T_US, _acc(lambda t: 2.0 * t), 2_000_000, 3_000_000)
+    assert c is not None
+    np.testing.assert_allclose(c.mean_acc, [1.0, 0.0, -1.0], atol=1e-12)
+    np.testing.assert_allclose(c.error_at(2_500_000), [0.25, 0.0, -0.25], atol=1e-12)
+    np.testing.assert_allclose(c.error_at(2_250_000), [0.1875, 0.0, -0.1875], atol=1e-12)
+    np.testing.assert_allclose(c.error_at(2_255_000), [0.255 - 0.255**2, 0.0,
+                                                       -(0.255 - 0.255**2)], atol=1e-4)
+    np.testing.assert_allclose(c.error_at(2_000_000), 0.0, atol=1e-12)
+    np.testing.assert_allclose(c.error_at(3_000_000), 0.0, atol=1e-12)
+
+
+def test_chord_error_of_a_constant_bias_is_zero():
+    # a constant acceleration (or an accelerometer bias added to it) is the chord's own slope:
+    # the GPS measures it, the chord error does not hide it
+    c = imu_chord(T_US, _acc(lambda t: 0.7 + 0.0 * t), 2_000_000, 3_000_000)
+    assert c is not None
+    for t in (2_100_000, 2_500_000, 2_990_000):
+        np.testing.assert_allclose(c.error_at(t), 0.0, atol=1e-12)
+
+
+def test_chord_needs_samples_covering_the_interval():
+    acc = _acc(lambda t: t)
+    assert imu_chord(T_US[1:], acc[1:], 2_000_000, 3_000_000) is None  # starts late
+    assert imu_chord(T_US[:-1], acc[:-1], 2_000_000, 3_000_000) is None  # ends early
+    assert imu_chord(T_US, acc, 2_000_000, 4_000_000) is None

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -209,8 +210,6 @@ def test_roll_wraps_without_glitch_on_a_vehicle_rolling_past_inverted() -> None:
 
 
 def _with_gps_gap(run: SynthRun, start_s: float, length_s: float) -> list[Frame]:
-    import dataclasses
-
     out = []
     for fr, t in zip(run.frames, run.t_s, strict=True):
         if start_s <= t < start_s + length_s:
@@ -282,3 +281,24 @@ def test_a_slower_attitude_stream_is_no_attitude_step() -> None:
         if e.reinit and k:
             reinits.append((t, e.reinit))
     assert not reinits, reinits[:3]
+
+
+def test_the_measured_interpolation_error_is_taken_out_of_the_gps_velocity(
+        run100: SynthRun) -> None:
+    # frames whose GPS velocity carries an interpolation error the assembler measured
+    # (Frame.gps_interp_err_ned_mps) give the fault estimates of the clean frames; without
+    # gps_imu_shape the error reaches them
+    frames = run100.frames[:800]
+    err = [np.array([0.2 * math.sin(0.01 * k), -0.1, 0.05]) for k in range(len(frames))]
+    shifted = [dataclasses.replace(fr, gps_vel_ned_mps=fr.gps_vel_ned_mps + e,
+                                   gps_interp_err_ned_mps=e)
+               for fr, e in zip(frames, err, strict=True)]
+
+    def track(cfg: ImuTsConfig, frs: list[Frame]) -> np.ndarray:
+        est = ImuTwoStageEstimator(cfg)
+        return np.array([[est.step(fr).faults[c] for c in FAULT_CHANNELS] for fr in frs])
+
+    clean = track(ImuTsConfig(), frames)
+    np.testing.assert_allclose(track(ImuTsConfig(), shifted), clean, rtol=0, atol=1e-9)
+    off = track(ImuTsConfig(gps_imu_shape=False), shifted)
+    assert np.max(np.abs(off[:, :3] - clean[:, :3])) > 0.05

@@ -1,0 +1,52 @@
+"""The assembler's IMU-measured error of the interpolated GPS velocity (samples.imu_chord),
+through MAVLink: level, heading north (NED = FRD), specific force with a constant jerk."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from gcs_monitor.link.decode import Decoder
+from gcs_monitor.telemetry.assembler import FrameAssembler
+from tests.helpers.mavgen import G0, MavGen
+
+JERK = 2.0  # m/s^3 along north and east
+
+
+class _Jerk(MavGen):
+    @staticmethod
+    def acc_frd(t: float, inst: int = 0) -> tuple[float, float, float]:
+        return (JERK * (t - 5.0), -JERK * (t - 5.0), -G0)
+
+    @staticmethod
+    def euler(t: float) -> tuple[float, float, float]:
+        return (0.0, 0.0, 0.0)
+
+
+def _frames(gps_hz: int) -> dict[int, object]:
+    d = Decoder()
+    a = FrameAssembler.aligned(None, d.vehicle_stats(1))
+    out = []
+    for _, p in _Jerk(gps_rate_hz=gps_hz, n_imu=1).packets(6.0):
+        for m in d.feed(p, 0.0):
+            out += a.push(m)
+    out += a.flush()
+    return {f.t_us: f for f in out}
+
+
+def test_one_hz_gps_error_is_the_constant_jerk_chord_error():
+    # e(tau) = j tau (T - tau) / 2 (samples.imu_chord): 0.25 m/s at mid-interval for j = 2 m/s^3
+    # and T = 1 s, 0.1875 m/s a quarter into it, zero on a GPS sample; no vertical error
+    f = _frames(1)
+    for t_us, want in ((9_500_000, 0.25), (9_250_000, 0.1875), (8_750_000, 0.1875)):
+        e = f[t_us].gps_interp_err_ned_mps
+        assert e is not None and not f[t_us].gps_held
+        np.testing.assert_allclose(e, [want, -want, 0.0], atol=1e-4)
+    e = f[9_000_000].gps_interp_err_ned_mps
+    assert e is None or np.allclose(e, 0.0, atol=1e-4)
+
+
+def test_ten_hz_gps_error_is_a_hundred_times_smaller():
+    # T = 0.1 s: j T^2 / 8 = 0.0025 m/s at mid-interval, a quarter of the GPS noise of Table 1
+    f = _frames(10)
+    np.testing.assert_allclose(f[9_050_000].gps_interp_err_ned_mps, [0.0025, -0.0025, 0.0],
+                               atol=1e-5)
