@@ -236,17 +236,32 @@ def load_config(path: Path | None = None, *, base: MonitorConfig | None = None) 
         raise ConfigError(f"{src}: is a directory, not a config file") from None
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{src}: not valid TOML: {exc}") from None
-    return _files_beside(config_from_dict(data, src, base=base), Path(path).parent)
-
-
-def _files_beside(cfg: MonitorConfig, folder: Path) -> MonitorConfig:
-    """File names in a configuration file are relative to that file's folder (a configuration
-    and the design ``calibrate`` wrote beside it move together): the yaw-rate design."""
-    yaw = cfg.families.get("yaw_rate")
-    design = getattr(yaw, "design", "")
-    if isinstance(design, str) and design.endswith(".json") and not Path(design).is_absolute():
-        return cfg.with_family("yaw_rate", design=str(folder / design))
+    cfg: MonitorConfig = _files_beside(config_from_dict(data, src, base=base), Path(path).parent)
     return cfg
+
+
+def _files_beside(obj: Any, folder: Path) -> Any:
+    """``obj`` (a configuration dataclass) with every file parameter (``param(file=True)``)
+    that names a relative file made relative to ``folder``, the configuration file's: a
+    configuration and a file written beside it (``calibrate``'s yaw-rate design) move
+    together. Names without a suffix (a shipped design) are left as they are."""
+    changes: dict[str, Any] = {}
+    for f in dataclasses.fields(obj):
+        value = getattr(obj, f.name)
+        if f.metadata.get("file") and isinstance(value, str):
+            path = Path(value)
+            if path.suffix and not path.is_absolute():
+                changes[f.name] = str(folder / path)
+        elif isinstance(value, dict):  # the families
+            new = {k: _files_beside(v, folder) if dataclasses.is_dataclass(v) else v
+                   for k, v in value.items()}
+            if any(new[k] is not value[k] for k in value):
+                changes[f.name] = new
+        elif dataclasses.is_dataclass(value) and not isinstance(value, type):
+            sub = _files_beside(value, folder)
+            if sub is not value:
+                changes[f.name] = sub
+    return dataclasses.replace(obj, **changes) if changes else obj
 
 
 # -- printing -------------------------------------------------------------------------------------

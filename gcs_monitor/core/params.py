@@ -70,7 +70,7 @@ _KNOT_SUFFIXES: dict[str, tuple[str, float]] = {
 
 def param(default: T, doc: str, *, unit: str | None = None, key: str | None = None,
           choices: tuple[str, ...] | None = None, positive: bool = False,
-          toml: bool = True) -> T:
+          toml: bool = True, file: bool = False) -> T:
     """A documented scalar parameter (a dataclass field).
 
     Parameters
@@ -83,9 +83,11 @@ def param(default: T, doc: str, *, unit: str | None = None, key: str | None = No
     choices : allowed values of a string parameter
     positive : a number that must be > 0 (otherwise >= 0)
     toml : False for a field the configuration file does not set (filled in by its owner)
+    file : a string that may name a file (one with a suffix); a relative one is relative to
+        the folder of the configuration file that sets it
     """
     md = {"doc": doc, "unit": unit, "key": key, "choices": choices, "positive": positive,
-          "toml": toml}
+          "toml": toml, "file": file}
     return dataclasses.field(default=default, metadata=md)
 
 
