@@ -303,6 +303,9 @@ class AircraftTier:
                      for i in range(len(CHANNELS))]
         self._v_ref = cfg.model.airspeed_ref_mps
         self._history_us = round(cfg.fdi.classify.history_s * US_PER_S)  # classifier history
+        # the engine models' candidate lags (ENGINE_LAG_SHARES of engine_lag_max_s; 0: none)
+        lag_max = cfg.model.engine_lag_max_s
+        self._lags = tuple(f * lag_max for f in ENGINE_LAG_SHARES) if lag_max > 0.0 else (0.0,)
         self._seen_inputs = False
         self._estimate: Estimate | None = None
         self._max_defl = cfg.outputs.max_deflection_rad
@@ -451,7 +454,7 @@ class AircraftTier:
         the data pick the lag. One lagged throttle per model, not several in one model: in
         cruise they are all equal, and a model fed with them all splits their weights
         arbitrarily and mispredicts the first throttle transient."""
-        taus = self._lags()
+        taus = self._lags
         if len(ax.thr_lag) != len(taus):
             ax.thr_lag = [thr] * len(taus)  # start in steady state
         else:
@@ -460,10 +463,6 @@ class AircraftTier:
                 a = math.exp(-dt / tau) if tau > 0.0 else 0.0
                 ax.thr_lag[j] = a * ax.thr_lag[j] + (1.0 - a) * thr
         return ax.thr_lag[ax.lag_k]
-
-    def _lags(self) -> tuple[float, ...]:
-        lag_max = self.cfg.model.engine_lag_max_s
-        return tuple(f * lag_max for f in ENGINE_LAG_SHARES) if lag_max > 0.0 else (0.0,)
 
     def _learn_lags(self, ax: _Axis, y: float, phi: list[float], dt: float, lam: float,
                     w: float) -> None:
@@ -591,7 +590,7 @@ class AircraftTier:
             if ax.index == ENGINE and ax.mode == SERVO:
                 ax.lag_models = [_LagModel(tau, ax.ref if k == ax.lag_k else
                                            RlsFilter(len(phi), m.initial_covariance))
-                                 for k, tau in enumerate(self._lags())]
+                                 for k, tau in enumerate(self._lags)]
         phi_v = np.array(phi)
         e = y - ax.ref.predict(phi_v)
         ax.e_ref = e
