@@ -18,7 +18,7 @@ import numpy as np
 
 from gcs_monitor.core.atmosphere import tas_from_cas
 from gcs_monitor.core.units import KT2MPS
-from sim_vehicle.actuators.faults import FAULT_KINDS, SURFACES, ActuatorFault
+from sim_vehicle.actuators.faults import SERVO_FAULT_KINDS, SURFACES, ActuatorFault
 from sim_vehicle.scenario import (
     InitialSpec,
     ManoeuvreSpec,
@@ -66,7 +66,7 @@ def servo_fault(rng: np.random.Generator, surface: int, kind: str, t0_s: float,
         return ActuatorFault(surface, kind, t0_s, None, sign)
     if kind == "solid_jam":
         return ActuatorFault(surface, kind, t0_s)
-    raise ValueError(f"unknown actuator fault kind {kind!r}; expected one of {FAULT_KINDS}")
+    raise ValueError(f"unknown servo fault kind {kind!r}; expected one of {SERVO_FAULT_KINDS}")
 
 
 def servo_campaign(n_runs: int, seed: int = 0, *,
@@ -74,8 +74,9 @@ def servo_campaign(n_runs: int, seed: int = 0, *,
     """Lu2017's five cases on every surface in turbulence, plus fault-free runs.
 
     Run ``i`` is fault-free when ``i`` falls on the fault-free share (evenly spread, so any
-    prefix keeps the mix); the faulty runs cycle through :data:`FAULT_KINDS` (every case is
-    represented in small campaigns) on a surface drawn at random.
+    prefix keeps the mix); the faulty runs cycle through Lu2017's five cases
+    (:data:`SERVO_FAULT_KINDS`; every case is represented in small campaigns) on a surface
+    drawn at random.
     """
     r = ranges
     rng = np.random.default_rng(np.random.SeedSequence([seed, 17]))
@@ -88,7 +89,7 @@ def servo_campaign(n_runs: int, seed: int = 0, *,
         fault_free = int((i + 1) * r.fault_free_share) > int(i * r.fault_free_share)
         faults: tuple[ActuatorFault, ...] = ()
         if not fault_free:
-            kind = FAULT_KINDS[n_faulty % len(FAULT_KINDS)]
+            kind = SERVO_FAULT_KINDS[n_faulty % len(SERVO_FAULT_KINDS)]
             n_faulty += 1
             surface = int(rng.integers(len(SURFACES)))
             t0 = round(_u(rng, r.fault_start_s), 2)

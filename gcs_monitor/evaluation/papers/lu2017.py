@@ -72,7 +72,7 @@ from gcs_monitor.fdi.events import AlarmEvent, AlarmKind, AlarmState
 from gcs_monitor.models.servo import ndi_control, reference_model_derivative
 from gcs_monitor.monitor import Monitor
 from sim_vehicle.actuators.campaign import servo_campaign
-from sim_vehicle.actuators.faults import FAULT_KINDS, apply_to_valve, fault_effect
+from sim_vehicle.actuators.faults import SERVO_FAULT_KINDS, apply_to_valve, fault_effect
 from sim_vehicle.actuators.servo_bank import ServoBank
 from sim_vehicle.run import iter_run, make_simulation
 from sim_vehicle.scenario import Scenario, load_scenario
@@ -326,7 +326,7 @@ def lu2017(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
             ef = run.rows[:, k, O_F_ROD] - (run.rod_true[:, k] - run.x_nom[:, k, 0])
             unit = "mm (rod)"
         sc_ = 1e3 if scen > 2 else 1.0
-        kind = None if scen == 0 else FAULT_KINDS[scen - 1]
+        kind = None if scen == 0 else SERVO_FAULT_KINDS[scen - 1]
         det = detection_of(tier_events(run), None if kind is None else k, kind, T_FAULT_S)
         if kind is None:
             named = "none (no alarm)" if not det.false_alarm_before else "false alarm"
@@ -591,7 +591,7 @@ def lu2017_campaign(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
                      [(d, "") for d in base_f], base_ff, False)]
     kinds_rows = []
     base_kinds = [k for _, k in tier_f]
-    for kind in FAULT_KINDS:
+    for kind in SERVO_FAULT_KINDS:
         r = _metrics(f"tier: {CASE_LABELS[kind]}", [x for x in tier_f if x[1] == kind], [], True)
         kinds_rows.append([r[0], r[2]] + r[4:])
         r = _metrics(f"baseline: {CASE_LABELS[kind]}",

@@ -7,7 +7,8 @@ import math
 
 import pytest
 
-from sim_vehicle.actuators.faults import ENGINE, ActuatorFault, effectiveness
+from sim_vehicle.actuators.campaign import servo_campaign
+from sim_vehicle.actuators.faults import ENGINE, SERVO_FAULT_KINDS, ActuatorFault, effectiveness
 from sim_vehicle.actuators.servo_bank import ActuatorGeometry, ServoBank
 from sim_vehicle.campaigns import ACTUATOR_CASES, generate_set
 from sim_vehicle.physics import Simulation
@@ -103,3 +104,12 @@ def test_actuator_campaign_is_seeded_and_covers_every_case() -> None:
     assert all(s.wind.kind == "turbulence" and s.manoeuvre.kind != "level" for s in a)
     ff = generate_set("actuators_fault_free", 5, seed=3)
     assert not any(s.actuator_faults for s in ff)
+
+
+def test_servo_campaign_draws_only_lu2017_cases() -> None:
+    """The servo campaign cycles through Lu2017's five cases, never the aircraft-level kinds
+    the simulator also flies (those have no servo-level signature to score)."""
+    runs = servo_campaign(30, seed=0)
+    kinds = [f.kind for s in runs for f in s.actuator_faults]
+    assert set(kinds) == set(SERVO_FAULT_KINDS)
+    assert sum(not s.actuator_faults for s in runs) == 9  # 30 % fault-free
