@@ -14,6 +14,11 @@ import math
 
 import numpy as np
 
+from gcs_monitor.families.actuators._servo_filters_jit import (
+    LEAD_CLIP_SIGMAS,
+    LEAD_FRACTIONS,
+    LEAD_SMOOTH,
+)
 from gcs_monitor.families.actuators.servo_filters import ServoFilterConfig, ServoSensors
 from gcs_monitor.filters.iotsekf import iotsekf_init, iotsekf_step
 from gcs_monitor.filters.three_step import three_step_predict, three_step_update
@@ -54,13 +59,55 @@ class ReferenceServoFilters:
         self.q_prev = math.nan
         self.d2: list[float] = []  # |second differences| of the command seen
         self.x_early, self.x_late = x0.copy(), x0.copy()
+        if not hasattr(self, "lead_j"):  # the identified command timing survives a restart
+            self.lead_j = [0.0] * len(LEAD_FRACTIONS)
+            self.lead_i = -1
+            self.dt_ref = 0.0
+            self.lead_x = [x0.copy() for _ in LEAD_FRACTIONS]
+            self.lead_k = 0
+
+    def _lead(self, dt: float) -> float:
+        """The command lead of this interval (``_servo_filters_jit.command_lead``)."""
+        c = self.cfg
+        self.dt_ref = dt if self.dt_ref <= 0.0 or dt < self.dt_ref else self.dt_ref
+        if c.command_lead_window_s <= 0.0:
+            return c.command_lead_s
+        if self.lead_i < 0:
+            errs = [abs(fr * self.dt_ref - c.command_lead_s) for fr in LEAD_FRACTIONS]
+            self.lead_i = errs.index(min(errs))
+        return LEAD_FRACTIONS[self.lead_i] * self.dt_ref
+
+    def _identify(self, anchor: np.ndarray, qc0: float, qc1: float, y_rod: float, dt: float,
+                  n_sub: int) -> tuple[list[float], list[np.ndarray], int, int]:
+        """The discounted rod errors of each candidate lead's nominal servo, those servos, the
+        lead of the next interval and the samples since the anchor
+        (``_servo_filters_jit.identify_lead``)."""
+        c = self.cfg
+        d1, d2 = qc1 - qc0, qc1 - 2.0 * qc0 + self.q_prev
+        if not abs(d2) <= LEAD_SMOOTH * abs(d1):
+            return self.lead_j, self.lead_x, self.lead_i, 0
+        lam = math.exp(-dt / c.command_lead_window_s)
+        clip = LEAD_CLIP_SIGMAS * self.sensors.rod_sigma_m
+        lj, lx = [], []
+        for j, fr in enumerate(LEAD_FRACTIONS):
+            x0 = anchor if self.lead_k == 0 else self.lead_x[j]
+            knee = max(dt - fr * self.dt_ref, 0.0)
+            x1 = propagate(x0, qc0, qc1, 0.0, dt, n_sub, self.prm, knee_s=knee).s
+            lj.append(lam * self.lead_j[j] + min(abs(x1[0] - y_rod), clip) ** 2)
+            lx.append(x1)
+        best = int(np.argmin(lj))
+        li = self.lead_i
+        margin = c.command_lead_switch * self.sensors.rod_sigma_m ** 2
+        k = (self.lead_k + 1) % c.command_lead_segment
+        return lj, lx, best if lj[li] - lj[best] > margin else li, k
 
     def step(self, dt: float, cmd_rad: float, y_rod: float, y_surf_rad: float
              ) -> dict[str, float] | None:
         c, prm = self.cfg, self.prm
         qc0, qc1 = self.q_com, self.rod_command(cmd_rad)
         n_sub = max(1, math.ceil(dt / c.substep_s - 1e-9))
-        knee = max(dt - c.command_lead_s, 0.0)
+        lead = self._lead(dt)
+        knee = max(dt - lead, 0.0)
         qs = (*c.state_noise_psd, 0.0, 0.0, 0.0)
         jit = 0.0
         if c.command_jitter_noise and self.q_prev == self.q_prev:
@@ -72,6 +119,8 @@ class ReferenceServoFilters:
             self.d2.append(d2)
         s = self.iots
         f0 = float(s.f[0])
+        ident = (self._identify(s.x, qc0, qc1, y_rod, dt, n_sub)
+                 if c.command_lead_window_s > 0.0 else None)
         Qt = np.zeros((6, 6))
         if c.command_step_noise:
             Qt += command_timing_noise(s.x, qc0, qc1, f0, dt, n_sub, prm)
@@ -108,6 +157,8 @@ class ReferenceServoFilters:
         env = self.x_early[0] - self.x_late[0]
         self.iots, self.x_nom, self.P_nom = new, rts.x, rts.P
         self.q_prev, self.q_com = qc0, qc1
+        if ident is not None:
+            self.lead_j, self.lead_x, self.lead_i, self.lead_k = ident
         x = new.x
         _, _, rddd = reference_model_derivative(x[3], x[4], x[5], qc1, self.loop)
         u = ndi_control(x[0], x[1], x[2], (x[3], x[4], x[5], rddd), self.servo, self.loop)
@@ -116,4 +167,4 @@ class ReferenceServoFilters:
                 "x_nom": rts.x[:3].copy(), "f_rod": float(rts.f[0]), "f_surf": float(rts.f[1]),
                 "sf_rod": math.sqrt(Pf[0, 0] + env * env / 12.0),
                 "sf_d": math.sqrt(Pf[0, 0] + Pf[1, 1] - 2.0 * Pf[0, 1]), "jit": jit,
-                "nu": float(innov.nu[0])}
+                "nu": float(innov.nu[0]), "lead": lead}

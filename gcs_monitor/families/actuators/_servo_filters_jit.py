@@ -50,15 +50,30 @@ JIT_MAX = 64
 S_XE = S_JBUF + JIT_MAX  # the nominal servo with every command change at the start of its
 # interval (S_XE) and at its end (S_XL)
 S_XL = S_XE + N  # ... and at its end
-N_STATE = S_XL + N
+# the command timing identified from the rod (see identify_lead): per candidate lead the
+# discounted sum of squared rod errors and its nominal servo since the last anchor, the
+# candidate in use (-1: not chosen yet), the samples since the anchor, and the sample interval
+# the candidates are fractions of (0: none seen yet)
+LEAD_FRACTIONS = (0.0, 0.25, 0.5, 1.0)
+N_LEAD = len(LEAD_FRACTIONS)
+LEAD_SMOOTH = 0.5  # an interval teaches the lead when |second difference| <= this x |first|
+LEAD_CLIP_SIGMAS = 10.0  # rod errors clipped at this many rod-noise sigmas
+S_LJ = S_XL + N
+S_LX = S_LJ + N_LEAD  # N_LEAD x N shadow states
+S_LI = S_LX + N_LEAD * N
+S_LK = S_LI + 1
+S_DTREF = S_LK + 1
+S_LFREEZE = S_DTREF + 1  # set by the caller while the surface is in alarm: nothing learnt
+N_STATE = S_LFREEZE + 1
 # configuration vector
 (C_GAIN, C_STROKE, C_ROD_SIG, C_SURF_SIG, C_SUBSTEP, C_QVALVE, C_QS0, C_QS1, C_QS2,
- C_FRATE, C_GATE, C_LEAD, C_STEP_NOISE, C_JIT_NOISE, C_JIT_WINDOW, C_BLEND) = range(16)
-N_CFG = 16
+ C_FRATE, C_GATE, C_LEAD, C_STEP_NOISE, C_JIT_NOISE, C_JIT_WINDOW, C_BLEND, C_LEAD_TAU,
+ C_LEAD_SWITCH, C_LEAD_SEGMENT) = range(19)
+N_CFG = 19
 # output row (servo_filters.O_*)
 (O_F_IN, O_U, O_X1, O_X2, O_X3, O_N1, O_N2, O_N3, O_F_ROD, O_F_SURF, O_NU, O_S, O_Q_COM,
- O_Y_ROD, O_Y_SURF, O_SF_ROD, O_SF_D, O_JIT) = range(18)
-N_OUT = 18
+ O_Y_ROD, O_Y_SURF, O_SF_ROD, O_SF_D, O_JIT, O_LEAD) = range(19)
+N_OUT = 19
 OK = 0
 SPREAD_PER_RMS = 0.5  # sqrt(1.5) / sqrt(6)
 JIT_TRIM = 2  # largest second differences left out of the spread (a step's pair)
@@ -141,6 +156,104 @@ def unseen_spread(st, qc0, qc1, dt, cfg):
 
 
 @jit
+def nearest_fraction(lead_s, dt_ref):
+    """Index of the candidate fraction of ``dt_ref`` nearest to ``lead_s``."""
+    best, err = 0, math.inf
+    for j in range(N_LEAD):
+        e = abs(LEAD_FRACTIONS[j] * dt_ref - lead_s)
+        if e < err:
+            best, err = j, e
+    return best
+
+
+@jit
+def command_lead(st, dt, cfg):
+    """``(lead_s, index, dt_ref)``: how long before a SURF sample the command it reports took
+    effect, as the filters use it this interval.
+
+    The configured ``command_lead_s`` when the identification is off (``C_LEAD_TAU = 0``);
+    otherwise the candidate ``LEAD_FRACTIONS[index] x dt_ref`` in use (``dt_ref``: the shortest
+    SURF interval seen, the stream's period; a lost sample only lengthens an interval), first
+    the one nearest the configured lead. The lead is the autopilot's servo-output period
+    (a command computed at each loop step and held for one step; the SURF sample reports the
+    newest): 0 for a loop much faster than SURF, ``dt_ref / 2`` for a loop at twice its rate,
+    ``dt_ref`` for one at its rate. A configured period is what the vehicle was said to run at;
+    :func:`identify_lead` measures it from the rod.
+    """
+    dt_ref = st[S_DTREF]
+    if dt_ref <= 0.0 or dt < dt_ref:
+        dt_ref = dt
+    if cfg[C_LEAD_TAU] <= 0.0:
+        return cfg[C_LEAD], -1, dt_ref
+    li = int(st[S_LI])
+    if li < 0:
+        li = nearest_fraction(cfg[C_LEAD], dt_ref)
+    return LEAD_FRACTIONS[li] * dt_ref, li, dt_ref
+
+
+@jit
+def identify_lead(st, anchor, qc0, qc1, y_rod, dt, dt_ref, li, n_sub, prm, cfg, lj, lx):
+    """The candidate lead for the next interval and the identification's new state ``lj``
+    (N_LEAD,), ``lx`` (N_LEAD, N); returns ``(index, samples since the anchor)`` (ours; Lu2017
+    takes the command as known at every instant).
+
+    Each candidate runs the nominal servo (no fault) with every command change ending
+    ``LEAD_FRACTIONS[j] x dt_ref`` before its sample, from a common anchor (``anchor``: the
+    IOTSEKF's estimate at the start of the interval, every ``C_LEAD_SEGMENT`` samples) and
+    uncorrected in between: a wrong lead shifts the rod by about its rate x the lead error,
+    which grows over a segment while the rod noise does not; one-step predictions drown it in
+    the noise. ``lj[j] = exp(-dt / tau) J_j + min(|x1_j - y_rod|, LEAD_CLIP_SIGMAS sigma)^2``
+    (a fault moves the rod away from every candidate alike; the clip keeps it from deciding).
+
+    Only a smooth command teaches the lead: the ramp between samples stands for a command the
+    loop samples at each step, and a step between two samples (``|second difference| >
+    LEAD_SMOOTH |first difference|``, also the interval after it) has its own unknown instant.
+    Such an interval adds nothing and starts a new segment at the next sample; so does a
+    caller's freeze (``S_LFREEZE``: the surface in alarm).
+
+    Returns the index with the smallest sum when the one in use exceeds it by more than
+    ``C_LEAD_SWITCH`` rod-noise variances, else ``li``. The rod noise adds the same to every
+    sum (the candidates' servos do not see it), so the difference is the evidence: with the
+    candidates' rods ``d_k`` apart it is ``sum d_k^2`` plus a cross term of sigma
+    ``2 sigma_rod sqrt(sum d_k^2)``; a margin of 25 variances is five of those sigmas at the
+    margin, and two candidates that predict alike never switch (their sums are equal).
+    """
+    qprev = st[S_QPREV]
+    d1 = qc1 - qc0
+    d2 = qc1 - 2.0 * qc0 + qprev
+    k = int(st[S_LK])
+    if st[S_LFREEZE] != 0.0 or not abs(d2) <= LEAD_SMOOTH * abs(d1):  # NaN qprev: not smooth
+        for j in range(N_LEAD):
+            lj[j] = st[S_LJ + j]
+            for i in range(N):
+                lx[j, i] = st[S_LX + j * N + i]
+        return li, 0
+    lam = math.exp(-dt / cfg[C_LEAD_TAU])
+    clip = LEAD_CLIP_SIGMAS * cfg[C_ROD_SIG]
+    dummy = np.empty((N, N))
+    dg = np.empty(N)
+    qs = np.zeros(N)
+    for j in range(N_LEAD):
+        for i in range(N):
+            lx[j, i] = anchor[i] if k == 0 else st[S_LX + j * N + i]
+        knee = max(dt - LEAD_FRACTIONS[j] * dt_ref, 0.0)
+        s = lx[j]
+        propagate(s, qc0, qc1, 0.0, dt, knee, n_sub, prm, False, 0.0, qs, dummy, dg, dummy)
+        e = min(abs(s[0] - y_rod), clip)
+        lj[j] = lam * st[S_LJ + j] + e * e
+    k += 1
+    if k >= cfg[C_LEAD_SEGMENT]:
+        k = 0
+    best = li
+    for j in range(N_LEAD):
+        if lj[j] < lj[best]:
+            best = j
+    if lj[li] - lj[best] > cfg[C_LEAD_SWITCH] * cfg[C_ROD_SIG] * cfg[C_ROD_SIG]:
+        return best, k
+    return li, k
+
+
+@jit
 def surface_step(st, dt, cmd_rad, y_rod, y_surf_rad, prm, cfg, out):
     """One SURF interval of one surface's IOTSEKF and RTS-EKF, in place on ``st``
     (``servo_filters.ServoFilters.step``). Returns 0, or the failing filter's code (1-2: the
@@ -151,7 +264,8 @@ def surface_step(st, dt, cmd_rad, y_rod, y_surf_rad, prm, cfg, out):
     q = cmd_rad / gain
     qc1 = stroke if q > stroke else (-stroke if q < -stroke else q)
     n_sub = max(1, int(math.ceil(dt / cfg[C_SUBSTEP] - 1e-9)))
-    knee = max(dt - cfg[C_LEAD], 0.0)
+    lead, li, dt_ref = command_lead(st, dt, cfg)
+    knee = max(dt - lead, 0.0)
     qv = cfg[C_QVALVE]
     qs = np.zeros(N)
     qs[0] = cfg[C_QS0]
@@ -166,6 +280,13 @@ def surface_step(st, dt, cmd_rad, y_rod, y_surf_rad, prm, cfg, out):
     V = st[S_V:S_V + N].copy().reshape((N, 1))
     x_hat = st[S_XHAT:S_XHAT + N].copy()
     f0 = f[0]
+    lj = np.empty(N_LEAD)
+    lx = np.empty((N_LEAD, N))
+    li_next = li
+    lk = 0
+    if li >= 0:
+        li_next, lk = identify_lead(st, x_hat, qc0, qc1, y_rod, dt, dt_ref, li, n_sub, prm,
+                                    cfg, lj, lx)
     Qt = np.empty((N, N))
     command_noise(x_hat, qc0, qc1, jitv, f0, dt, n_sub, prm, cfg[C_STEP_NOISE] != 0.0,
                   cfg[C_JIT_NOISE] != 0.0, Qt)
@@ -272,6 +393,14 @@ def surface_step(st, dt, cmd_rad, y_rod, y_surf_rad, prm, cfg, out):
     for i in range(N):
         st[S_XE + i] = xe[i]
         st[S_XL + i] = xl[i]
+    if li >= 0:
+        for j in range(N_LEAD):
+            st[S_LJ + j] = lj[j]
+            for i in range(N):
+                st[S_LX + j * N + i] = lx[j, i]
+        st[S_LI] = li_next
+        st[S_LK] = lk
+    st[S_DTREF] = dt_ref
     # outputs
     xh = st[S_XHAT:S_XHAT + N].copy()
     fn = st[S_F]
@@ -296,6 +425,7 @@ def surface_step(st, dt, cmd_rad, y_rod, y_surf_rad, prm, cfg, out):
     out[O_SF_ROD] = math.sqrt(max(Pfr[0, 0], 0.0) + env * env / 12.0)
     out[O_SF_D] = math.sqrt(max(Pfr[0, 0] + Pfr[1, 1] - 2.0 * Pfr[0, 1], 0.0))
     out[O_JIT] = jitv
+    out[O_LEAD] = lead
     return OK
 
 

@@ -60,6 +60,7 @@ from gcs_monitor.families.actuators.servo_filters import (
     O_F_ROD,
     O_F_SURF,
     O_JIT,
+    O_LEAD,
     O_N1,
     O_N3,
     O_NU,
@@ -384,7 +385,8 @@ class ServoTier:
                        ChannelId(SURFACE_KIND, k, "output_rod"),
                        ChannelId(SURFACE_KIND, k, "output_surface"),
                        ChannelId(SURFACE_KIND, k, "rod"), ChannelId(SURFACE_KIND, k, "valve"),
-                       ChannelId(SURFACE_KIND, k, "rod_command"))
+                       ChannelId(SURFACE_KIND, k, "rod_command"),
+                       ChannelId(SURFACE_KIND, k, "command_lead"))
                       for k, name in enumerate(SURFACES)]
         self._why = ""  # why the last new sample was not stepped on (restart)
         # the lever the telemetry shows: sum(pos * rod), sum(rod^2) and the sample count per
@@ -443,6 +445,9 @@ class ServoTier:
                 f.start(cmd_l[k], rod_l[k])
             return ServoPrediction(True, None, why)
         rows = self._rows
+        if self._fdi is not None:  # a surface in alarm teaches the command timing nothing
+            for k, fdi in enumerate(self._fdi):
+                self.bank.freeze_lead(k, fdi.active_axis is not None)
         failed = self.bank.step(dt, cmd, rod, pos, rows)
         if failed >= 0:
             why = f"{SURFACES[failed]}: numerical failure"
@@ -561,7 +566,7 @@ class ServoTier:
         f_out: dict[ChannelId, float] = {}
         res_in: dict[ChannelId, float] = {}
         virt: dict[ChannelId, float] = {}
-        for (x, xn, c_in, c_rod, c_surf, c_res, c_valve, c_cmd), r in zip(
+        for (x, xn, c_in, c_rod, c_surf, c_res, c_valve, c_cmd, c_lead), r in zip(
                 self._keys, rows, strict=True):
             iots_states[x] = np.array(r[O_X1:O_X3 + 1])
             rts_states[xn] = np.array(r[O_N1:O_N3 + 1])
@@ -571,6 +576,7 @@ class ServoTier:
             res_in[c_res] = r[O_NU]
             virt[c_valve] = r[O_U]
             virt[c_cmd] = r[O_Q_COM]
+            virt[c_lead] = r[O_LEAD]  # s: the autopilot's servo-output period, identified
         return [Estimate(IOTSEKF_NAME, t_us, states=iots_states, faults=f_in, residuals=res_in,
                          virtual=virt),
                 Estimate(RTSEKF_NAME, t_us, states=rts_states, faults=f_out)]

@@ -84,8 +84,19 @@ class ServoFilterConfig:
                                        "false: eq. 17 as printed, with f^i = 0)")
     command_lead_s: float = param(0.01, "the command a SURF sample reports took effect this "
                                   "long before the sample (the autopilot's servo-output "
-                                  "period; ours: the simulator's 100 Hz): the model's command "
-                                  "reaches it that much earlier")
+                                  "period): the model's command reaches it that much earlier; "
+                                  "with command_lead_window_s > 0 only the first guess, until "
+                                  "the rod says otherwise")
+    command_lead_window_s: float = param(20.0, "time constant (s) of the discounted rod "
+                                         "prediction errors that identify the command lead "
+                                         "among 0, 1/4, 1/2 and 1 SURF period (ours, "
+                                         "ServoFilters); 0: always command_lead_s")
+    command_lead_switch: float = param(25.0, "a candidate lead replaces the one in use when "
+                                       "its discounted squared rod error is smaller by this "
+                                       "many rod-noise variances (hysteresis)", positive=True)
+    command_lead_segment: int = param(10, "samples each candidate's nominal servo runs "
+                                      "uncorrected from the IOTSEKF's estimate before it is "
+                                      "anchored again", positive=True)
     command_step_noise: bool = param(True, "a change of the rod command between two samples "
                                      "adds the covariance of its unknown instant to the "
                                      "IOTSEKF's process noise (ours, module docstring)")
@@ -103,8 +114,8 @@ class ServoFilterConfig:
 
 # the output row of one surface (ServoFilters.step): the kernel's O_* indices
 (O_F_IN, O_U, O_X1, O_X2, O_X3, O_N1, O_N2, O_N3, O_F_ROD, O_F_SURF, O_NU, O_S, O_Q_COM,
- O_Y_ROD, O_Y_SURF, O_SF_ROD, O_SF_D, O_JIT) = range(18)
-N_OUT = 18
+ O_Y_ROD, O_Y_SURF, O_SF_ROD, O_SF_D, O_JIT, O_LEAD) = range(19)
+N_OUT = 19
 _KERNEL = "gcs_monitor.families.actuators._servo_filters_jit"
 
 
@@ -126,6 +137,9 @@ def pack_config(sensors: ServoSensors, cfg: ServoFilterConfig) -> np.ndarray:
     out[k.C_JIT_NOISE] = float(cfg.command_jitter_noise)
     out[k.C_JIT_WINDOW] = cfg.command_jitter_window_s
     out[k.C_BLEND] = float(cfg.bias_free_from_blend)
+    out[k.C_LEAD_TAU] = cfg.command_lead_window_s
+    out[k.C_LEAD_SWITCH] = cfg.command_lead_switch
+    out[k.C_LEAD_SEGMENT] = cfg.command_lead_segment
     return out
 
 
@@ -153,6 +167,17 @@ class ServoFilters:
     step that saturates the valve leaves the rod a rate x interval apart for the whole slew,
     which no linearised covariance carries); uniform between the two, variance
     ``(x1_early - x1_late)^2 / 12``.
+
+    The command a SURF sample reports took effect one autopilot step before the sample (the
+    loop computes it and holds it for a step), so the model's command ramps from the previous
+    sample's value and reaches the new one ``lead`` before the sample. The lead is the
+    autopilot's servo-output period, which the telemetry does not carry: the kernel
+    identifies it (``_servo_filters_jit.identify_lead``; ``command_lead_s`` is only the first
+    guess) by running the nominal servo once per candidate (0, 1/4, 1/2, 1 of the SURF period)
+    from the IOTSEKF's estimate over segments of ``command_lead_segment`` samples and keeping
+    the one whose rod stays closest to the sensor. A wrong lead shows as an input fault that
+    follows the command's rate (a loop at 200 Hz taken for 100 Hz: 0.02-0.03 of the valve
+    command in the simulator's turns, above the threshold).
     """
 
     def __init__(self, servo: ServoParams, loop: ServoLoopParams, sensors: ServoSensors,
@@ -190,7 +215,13 @@ class ServoFilters:
         P0 = np.diag(np.square(sig)).ravel()
         x0 = np.array([y_rod_m, 0.0, 0.0, y_rod_m, 0.0, 0.0])
         st = self.st
+        # the identified command timing belongs to the vehicle, not to this start: kept
+        ident = st[k.S_LJ:k.S_DTREF + 1].copy() if self.started else None
         st[:] = 0.0
+        if ident is None:
+            st[k.S_LI] = -1.0  # no candidate chosen yet (the configured lead first)
+        else:
+            st[k.S_LJ:k.S_DTREF + 1] = ident
         st[k.S_XBAR:k.S_XBAR + 6] = x0
         st[k.S_PBAR:k.S_PBAR + 36] = P0
         st[k.S_PF] = c.fault_init_sigma ** 2
@@ -265,6 +296,11 @@ class ServoFilterBank:
                         for i in range(n)]
         self._prm = self.filters[0].prm
         self._cfgv = self.filters[0]._cfgv
+
+    def freeze_lead(self, k: int, frozen: bool) -> None:
+        """Surface ``k``'s samples teach the command timing nothing while ``frozen`` (the
+        surface in alarm: a fault moves the rod away from every candidate)."""
+        self.states[k, self._k.S_LFREEZE] = 1.0 if frozen else 0.0
 
     def step(self, dt_s: float, cmd_rad: np.ndarray, y_rod_m: np.ndarray,
              y_surf_rad: np.ndarray, out: np.ndarray) -> int:

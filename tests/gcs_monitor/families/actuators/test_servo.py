@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 
 import numpy as np
 import pytest
@@ -25,6 +26,7 @@ from gcs_monitor.families.actuators.servo_filters import (
     O_F_ROD,
     O_F_SURF,
     O_JIT,
+    O_LEAD,
     O_SF_D,
     O_SF_ROD,
     O_U,
@@ -58,18 +60,20 @@ def command_3211(t: float) -> float:
 
 
 def simulate(faults: tuple[ActuatorFault, ...] = (), duration_s: float = 14.0,
-             surf_hz: float = 50.0, seed: int = 0) -> list[Frame]:
+             surf_hz: float = 50.0, seed: int = 0, sim_dt: float = SIM_DT,
+             command: Callable[[float], float] = command_3211) -> list[Frame]:
     """SURF frames of a servo bank (elevator doing the 3-2-1-1, the others at rest) with the
-    simulator's sensor noise; one Frame per SURF sample."""
+    simulator's sensor noise; one Frame per SURF sample; ``command`` (rad of time) is
+    evaluated every ``sim_dt`` and held over the step."""
     bank = ServoBank(GEO, (0.0, 0.0, 0.0), faults=faults)
     rng = np.random.default_rng(seed)
-    every = round(1.0 / (surf_hz * SIM_DT))
+    every = round(1.0 / (surf_hz * sim_dt))
     frames: list[Frame] = []
     t = 0.0
-    for k in range(round(duration_s / SIM_DT)):
-        cmd = (0.0, command_3211(t), 0.0)
-        bank.step(t, SIM_DT, cmd)
-        t = (k + 1) * SIM_DT
+    for k in range(round(duration_s / sim_dt)):
+        cmd = (0.0, command(t), 0.0)
+        bank.step(t, sim_dt, cmd)
+        t = (k + 1) * sim_dt
         if (k + 1) % every:
             continue
         pos = np.array([bank.deflection_rad(i) for i in range(3)])
@@ -99,6 +103,32 @@ def test_fault_free_servo_raises_nothing() -> None:
     _, events, judged = run_tier(simulate(duration_s=20.0))
     assert events == []
     assert all(judged[round(2.5 * 50):])  # judged from the end of the 2 s warm-up on
+
+
+@pytest.mark.parametrize("sim_dt", [0.005, 0.01, 0.02])
+def test_command_lead_is_the_autopilot_period_measured_from_the_rod(sim_dt: float) -> None:
+    """The command a SURF sample reports took effect one autopilot step before it (the bank's
+    commands change every ``sim_dt``): whatever the configured lead (10 ms), the filters
+    identify ``sim_dt`` from the rod, and a servo commanded at 200, 100 or 50 Hz raises no
+    alarm (at 200 Hz the configured 10 ms alone raises a false input fault in the
+    simulator's demo flight: docs/results.md, rate sweep). The command is a smooth 3 deg,
+    0.5 Hz sine sampled by the loop (a step on the SURF grid took effect a whole interval
+    before the sample, whatever the loop)."""
+    frames = simulate(duration_s=20.0, sim_dt=sim_dt,
+                      command=lambda t: 3.0 * DEG2RAD * math.sin(math.pi * t))
+    f = ServoFilters(ServoParams(), ServoLoopParams(), SENS, ServoFilterConfig())
+    f.start(float(frames[0].surf_cmd_rad[1]), float(frames[0].rod_pos_m[1]))
+    out = np.zeros(N_OUT)
+    leads = []
+    for p, q in zip(frames, frames[1:], strict=False):
+        assert f.step((q.t_us - p.t_us) * 1e-6, float(q.surf_cmd_rad[1]),
+                      float(q.rod_pos_m[1]), float(q.surf_pos_rad[1]), out)
+        leads.append(out[O_LEAD])
+    assert leads[0] == pytest.approx(0.01)  # the configured lead first
+    assert leads[-1] == pytest.approx(sim_dt)
+    assert set(np.round(leads[len(leads) // 2:], 6)) == {round(sim_dt, 6)}  # and it stays
+    _, events, _ = run_tier(frames)
+    assert events == []
 
 
 FAULTS = {
@@ -185,7 +215,8 @@ def test_kernel_equals_reference(case: str) -> None:
         assert r is not None
         for i, key, scale in ((O_F_IN, "f_in", 1.0), (O_U, "u", 1.0), (O_F_ROD, "f_rod", 0.1),
                               (O_F_SURF, "f_surf", 0.1), (O_SF_ROD, "sf_rod", 1e-3),
-                              (O_SF_D, "sf_d", 1e-3), (O_JIT, "jit", 1e-3)):
+                              (O_SF_D, "sf_d", 1e-3), (O_JIT, "jit", 1e-3),
+                              (O_LEAD, "lead", 1e-3)):
             assert abs(out[i] - r[key]) <= 1e-12 * scale + 1e-12 * abs(r[key]), key
         np.testing.assert_allclose(out[O_X1:O_X1 + 3], r["x"], rtol=1e-9, atol=1e-13)
 
