@@ -752,6 +752,12 @@ class AircraftTier:
             r = ratios.get(ax.index, 0.0)
             raise_it = ax.faulty and (sm.active or (r >= iso * top
                                                     and r >= fdi.second_fault_ratio * active))
+            if raise_it and not sm.active and ax.index == ENGINE and not self._engine_lost(ax):
+                # the residual check saw deficits (the RMS of the one-sided residual), but the
+                # classifier's history holds no loss the model can resolve: a transient (the
+                # throttle moving faster than the lag models, a flight regime the model has
+                # not learnt), not a lost engine; an alarm would name a loss of a few % or less
+                raise_it = False
             if raise_it:
                 if sm.active and t_us < ax.next_class_us:
                     continue
@@ -781,6 +787,26 @@ class AircraftTier:
             conf = min(1.0, max(0.0, min(kappa - lo, hi - kappa) / (0.5 * (hi - lo))))
         return ft, mag, msg, conf
 
+    @staticmethod
+    def _deficit(ax: _Axis) -> float:
+        """The engine's mean thrust deficit over the classifier's history (m/s^2; NaN
+        without history)."""
+        if not ax.hist:
+            return math.nan
+        return -sum(e for _, _, e, _ in ax.hist) / len(ax.hist)
+
+    def _engine_lost(self, ax: _Axis) -> bool:
+        """Whether the history shows a loss of thrust the engine model can resolve: a mean
+        deficit of at least ``engine_min_loss`` of the modelled thrust (with a throttle), a
+        positive one (without)."""
+        if not ax.hist:
+            return False
+        deficit = self._deficit(ax)
+        if ax.mode != SERVO or ax.ref is None:
+            return deficit > 0.0
+        thrust = float(ax.ref.theta[0]) * sum(x for _, x, _, _ in ax.hist) / len(ax.hist)
+        return thrust > 1e-9 and deficit >= self.cfg.fdi.classify.engine_min_loss * thrust
+
     def _class_of(self, ax: _Axis) -> tuple[FaultType, float, str]:
         """Fault class and magnitude from the history (module docstring)."""
         c = self.cfg.fdi.classify
@@ -793,7 +819,7 @@ class AircraftTier:
             return FaultType.UNKNOWN, math.nan, f"{name}: response off its model ({src})"
         x, e, sq = h[:, 0], h[:, 1], h[:, 2]
         if ax.index == ENGINE:
-            deficit = -float(np.mean(e))
+            deficit = self._deficit(ax)
             if ax.mode == SERVO:
                 thrust = b * float(np.mean(x))
                 loss = min(1.0, max(0.0, deficit / thrust)) if thrust > 1e-9 else math.nan

@@ -152,6 +152,12 @@ class ClassifyConfig:
                                        "deflection is reported stuck at zero", positive=True)
     reclassify_s: float = param(2.0, "time between two classifications of an active alarm",
                                 positive=True)
+    engine_min_loss: float = param(0.25, "an engine alarm is raised only when at least this "
+                                   "share of the thrust its model gives at the throttle is "
+                                   "missing over the history (the model's resolution: healthy "
+                                   "engines read up to 13 % in the triplex campaign's "
+                                   "manoeuvres); without a throttle, any mean deficit",
+                                   positive=True)
 
 
 @dataclass(frozen=True, slots=True)

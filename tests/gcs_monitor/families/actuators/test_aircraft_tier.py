@@ -159,17 +159,18 @@ def test_the_airspeed_reference_is_never_zero():
 
 
 def _engine_frames(duration_s: float, *, tau_s: float, out_at_s: float | None = None,
-                   seed: int = 0, throttle=None):
+                   seed: int = 0, throttle=None, loss: float = 1.0):
     """Frames of an engine whose thrust follows the throttle through a first-order lag of
     ``tau_s`` (f_x = 2 thrust - 1 m/s^2, thrust = lag(throttle)), the throttle stepping between
-    0.3 and 0.8 every 4 s; the engine delivers nothing from ``out_at_s``."""
+    0.3 and 0.8 every 4 s; the engine loses the share ``loss`` of its thrust from
+    ``out_at_s`` (all of it by default)."""
     rng = np.random.default_rng(seed)
     thrust = thr = 0.55
     a = math.exp(-DT / tau_s)
     for k in range(round(duration_s / DT)):
         t = k * DT
         t_us = round(t * 1e6)
-        acting = 0.0 if out_at_s is not None and t >= out_at_s else thr
+        acting = (1.0 - loss) * thr if out_at_s is not None and t >= out_at_s else thr
         thrust = a * thrust + (1.0 - a) * acting
         thr = throttle(t) if throttle else (0.3 if int(t / 4.0) % 2 == 0 else 0.8)
         fx = 2.0 * thrust - 1.0 + 0.01 * rng.standard_normal()
@@ -211,6 +212,22 @@ def test_engine_out_is_raised_and_a_deficit_is_bounded_by_the_thrust():
     assert raised[0].fault_type is FaultType.LOSS_OF_EFFECTIVENESS
     later = [e for e in events if e.channel == raised[0].channel]
     assert all(not e.magnitude > 1.0 for e in later)
+
+
+@pytest.mark.parametrize(("loss", "raised"), [(0.1, False), (0.5, True)])
+def test_an_engine_alarm_names_a_loss_the_model_resolves(loss: float, raised: bool) -> None:
+    """An engine alarm claims a loss of thrust: it is raised only when the classifier's
+    history holds at least ``engine_min_loss`` (25 %) of the modelled thrust missing. A 10 %
+    loss from 50 s stays below that (the triplex campaign's healthy engines read up to 13 %
+    in manoeuvres the model has not learnt); half the thrust lost is raised and named."""
+    tier = _tier()
+    events, _ = _run(tier, _engine_frames(70.0, tau_s=0.3, out_at_s=50.0, loss=loss))
+    up = [e for e in events if e.kind is AlarmKind.ACTUATOR_FAULT
+          and e.state is AlarmState.RAISED]
+    assert bool(up) is raised
+    if raised:
+        assert up[0].channel == ChannelId("actuator", 3, "engine")
+        assert up[0].magnitude == pytest.approx(loss, abs=0.15)
 
 
 def test_a_link_outage_restarts_the_engine_lags():
