@@ -88,6 +88,7 @@ US_PER_S = 1_000_000
 ENGINE = 3
 # the engine models' throttle lags: these shares of ``engine_lag_max_s`` (0: no lag)
 ENGINE_LAG_SHARES = (0.0, 1.0 / 9.0, 1.0 / 3.0, 1.0)
+STOP_SHARE = 0.98  # a surface command at or beyond this share of its full deflection is at the stop
 # another lag's model replaces the engine's when its healthy residual variance is below this
 # share of the current one's, with at least LAG_MIN_SAMPLES samples in it
 LAG_SWITCH_RATIO = 0.8
@@ -624,7 +625,12 @@ class AircraftTier:
             # (a thrust deficit is the residual's), not the yaw axis on setpoints
             own = ax.index != ENGINE and (ax.mode == SERVO or ax.index != 2)
             ax.z = self._loss_z(ax) if own else 0.0
-            ax.eff.update(max(ax.z, 0.0) / scale)
+            if not (own and ax.mode == SERVO and not (
+                    abs(prev.u_rad[ax.index]) < STOP_SHARE * self._max_defl[ax.index])):
+                ax.eff.update(max(ax.z, 0.0) / scale)
+            # else: the autopilot has run out of this surface; a command held at its end stop
+            # does not vary and tells nothing of the effectiveness (the tracking slope has no
+            # excitation): the check holds its state until the command leaves the stop
         ax.command_rad = prev.u_rad[ax.index] if ax.index != ENGINE and ax.mode == SERVO \
             else math.nan
         return ax, y, phi, phi_v, sq

@@ -27,9 +27,11 @@ CTX = FamilyContext(vehicle=1, stale_after_s=0.5)
 
 
 def _frames(duration_s: float, *, stuck_at_s: float | None = None, stuck_rad: float = 0.05,
-            seed: int = 0, repeat: int = 1):
+            seed: int = 0, repeat: int = 1, stop_from_s: float | None = None):
     """Frames of a linear aircraft driven by random surface commands (every ``repeat``-th
-    response is a new measurement, the others repeat it, as a logger's forward fill)."""
+    response is a new measurement, the others repeat it, as a logger's forward fill); from
+    ``stop_from_s`` the aileron is commanded to its end stop, and goes to its travel's end
+    (70 % of the command's full deflection: a stop that is not where the PWM range says)."""
     rng = np.random.default_rng(seed)
     w = np.zeros(3)
     u_prev = np.zeros(3)
@@ -39,7 +41,11 @@ def _frames(duration_s: float, *, stuck_at_s: float | None = None, stuck_rad: fl
         t_us = round(t * 1e6)
         u = 0.1 * np.sin(2 * math.pi * np.array([0.3, 0.23, 0.17]) * t + np.arange(3)) \
             + 0.03 * rng.standard_normal(3)
+        if stop_from_s is not None and t >= stop_from_s:
+            u[0] = MAX_DEFL
         acting = u_prev.copy()
+        if stop_from_s is not None and t >= stop_from_s + DT:
+            acting[0] = 0.7 * MAX_DEFL  # the surface's travel ends short of the command's
         if stuck_at_s is not None and t >= stuck_at_s:
             acting[0] = stuck_rad
         w = A * w + B * acting + 0.002 * rng.standard_normal(3)
@@ -66,6 +72,24 @@ def _run(tier, frames):
 
 def _tier() -> AircraftTier:
     return AircraftTier(ActuatorFamilyConfig().aircraft, CTX)
+
+
+def test_a_command_at_its_end_stop_does_not_move_the_effectiveness_check():
+    """From 30 s the autopilot holds the aileron at its end stop: a command that does not vary
+    says nothing of the effectiveness (the tracking slope has no excitation), so the aileron's
+    effectiveness check holds its J while the command stays there, whatever the response (the
+    triplex campaign's run 90: an aileron held at the stop for 10 s in an upset was called
+    stuck). The residual check goes on: a response off the model still counts."""
+    tier = _tier()
+    frames = list(_frames(40.0, stop_from_s=30.0))
+    at_stop = round(30.1 / DT)  # the first sample whose acting command is at the stop
+    _run(tier, frames[:at_stop])
+    ax = tier.axes[0]
+    assert ax.eff is not None
+    j_before = ax.eff.J
+    _run(tier, frames[at_stop:])
+    assert ax.eff.J == j_before  # without the hold: J 41 within 2 s, "23 % lost" raised
+    assert ax.res is not None and ax.judged  # the residual check goes on judging the axis
 
 
 def test_reference_model_converges_to_the_true_coefficients():
