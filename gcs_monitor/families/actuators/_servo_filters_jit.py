@@ -215,8 +215,9 @@ def identify_lead(st, anchor, qc0, qc1, y_rod, dt, dt_ref, li, n_sub, prm, cfg, 
     ``C_LEAD_SWITCH`` rod-noise variances, else ``li``. The rod noise adds the same to every
     sum (the candidates' servos do not see it), so the difference is the evidence: with the
     candidates' rods ``d_k`` apart it is ``sum d_k^2`` plus a cross term of sigma
-    ``2 sigma_rod sqrt(sum d_k^2)``; a margin of 25 variances is five of those sigmas at the
-    margin, and two candidates that predict alike never switch (their sums are equal).
+    ``2 sigma_rod sqrt(sum d_k^2)``: at a margin of 25 variances the evidence is 2.5 of those
+    sigmas, and it grows with the square root of the evidence; two candidates that predict
+    alike never switch (their sums are equal).
     """
     qprev = st[S_QPREV]
     d1 = qc1 - qc0
