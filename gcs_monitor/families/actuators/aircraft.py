@@ -88,7 +88,6 @@ US_PER_S = 1_000_000
 ENGINE = 3
 # the engine models' throttle lags: these shares of ``engine_lag_max_s`` (0: no lag)
 ENGINE_LAG_SHARES = (0.0, 1.0 / 9.0, 1.0 / 3.0, 1.0)
-STOP_SHARE = 0.98  # a surface command at or beyond this share of its full deflection is at the stop
 # another lag's model replaces the engine's when its healthy residual variance is below this
 # share of the current one's, with at least LAG_MIN_SAMPLES samples in it
 LAG_SWITCH_RATIO = 0.8
@@ -97,6 +96,7 @@ LAG_MIN_SAMPLES = 100
 # (the throttle in the gap is unknown; 3 time constants leave 5 % of its effect)
 LAG_SETTLE = 3.0
 ESTIMATOR = "actuators_aircraft"
+STOP_SHARE = 0.98  # a surface command at or beyond this share of its full deflection is at the stop
 PERIOD_REFRESH = 50  # axis steps between two re-measurements of the step period
 ESTIMATE_PERIOD_US = 100_000  # estimates (dashboard, evaluation) at most at 10 Hz
 SERVO, SETPOINT = "servo", "setpoint"
@@ -625,15 +625,19 @@ class AircraftTier:
             # (a thrust deficit is the residual's), not the yaw axis on setpoints
             own = ax.index != ENGINE and (ax.mode == SERVO or ax.index != 2)
             ax.z = self._loss_z(ax) if own else 0.0
-            if not (own and ax.mode == SERVO and not (
-                    abs(prev.u_rad[ax.index]) < STOP_SHARE * self._max_defl[ax.index])):
-                ax.eff.update(max(ax.z, 0.0) / scale)
-            # else: the autopilot has run out of this surface; a command held at its end stop
-            # does not vary and tells nothing of the effectiveness (the tracking slope has no
+            # a command held at its end stop (the autopilot has run out of this surface) does
+            # not vary and tells nothing of the effectiveness (the tracking slope has no
             # excitation): the check holds its state until the command leaves the stop
+            if not (own and self._at_stop(ax, prev)):
+                ax.eff.update(max(ax.z, 0.0) / scale)
         ax.command_rad = prev.u_rad[ax.index] if ax.index != ENGINE and ax.mode == SERVO \
             else math.nan
         return ax, y, phi, phi_v, sq
+
+    def _at_stop(self, ax: _Axis, prev: Signals) -> bool:
+        """The surface's servo-output command (the one acting) is at its end stop (NaN: no)."""
+        return ax.mode == SERVO and abs(prev.u_rad[ax.index]) >= \
+            STOP_SHARE * self._max_defl[ax.index]
 
     def _not_judged(self, ax: _Axis, s: Signals) -> str:
         m = self.cfg.model
@@ -794,23 +798,25 @@ class AircraftTier:
         return ft, mag, msg, conf
 
     @staticmethod
-    def _deficit(ax: _Axis) -> float:
-        """The engine's mean thrust deficit over the classifier's history (m/s^2; NaN
-        without history)."""
-        if not ax.hist:
-            return math.nan
-        return -sum(e for _, _, e, _ in ax.hist) / len(ax.hist)
+    def _engine_balance(ax: _Axis) -> tuple[float, float]:
+        """The engine's mean thrust deficit over the classifier's history and the mean thrust
+        its reference model gives at the throttle there (m/s^2; NaN without history, the
+        thrust NaN without a throttle)."""
+        n = len(ax.hist)
+        if not n:
+            return math.nan, math.nan
+        deficit = -sum(e for _, _, e, _ in ax.hist) / n
+        if ax.mode != SERVO or ax.ref is None:
+            return deficit, math.nan
+        return deficit, float(ax.ref.theta[0]) * sum(x for _, x, _, _ in ax.hist) / n
 
     def _engine_lost(self, ax: _Axis) -> bool:
         """Whether the history shows a loss of thrust the engine model can resolve: a mean
         deficit of at least ``engine_min_loss`` of the modelled thrust (with a throttle), a
         positive one (without)."""
-        if not ax.hist:
-            return False
-        deficit = self._deficit(ax)
-        if ax.mode != SERVO or ax.ref is None:
+        deficit, thrust = self._engine_balance(ax)
+        if thrust != thrust:
             return deficit > 0.0
-        thrust = float(ax.ref.theta[0]) * sum(x for _, x, _, _ in ax.hist) / len(ax.hist)
         return thrust > 1e-9 and deficit >= self.cfg.fdi.classify.engine_min_loss * thrust
 
     def _class_of(self, ax: _Axis) -> tuple[FaultType, float, str]:
@@ -825,9 +831,8 @@ class AircraftTier:
             return FaultType.UNKNOWN, math.nan, f"{name}: response off its model ({src})"
         x, e, sq = h[:, 0], h[:, 1], h[:, 2]
         if ax.index == ENGINE:
-            deficit = self._deficit(ax)
+            deficit, thrust = self._engine_balance(ax)
             if ax.mode == SERVO:
-                thrust = b * float(np.mean(x))
                 loss = min(1.0, max(0.0, deficit / thrust)) if thrust > 1e-9 else math.nan
                 what = "engine out" if loss >= 0.8 else f"{100 * loss:.0f} % of thrust lost"
                 return (FaultType.LOSS_OF_EFFECTIVENESS, loss,
