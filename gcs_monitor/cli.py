@@ -785,11 +785,14 @@ def cmd_yaw_design(args: argparse.Namespace) -> int:
     from gcs_monitor.evaluation.papers.chen2020_design import write_design
 
     for airframe in args.airframe or ["transport", "uav"]:
-        path, d = write_design(airframe, args.out)
-        bounds = ", ".join(f"{s}: {v.gamma:.4g}" for s, v in d.sensors.items())
-        fit = d.meta["fit"]
-        print(f"{airframe}: {path} (LPV fit: A rel. error {fit['rel_A']:.3g}, B "
-              f"{fit['rel_B']:.3g}; L2-gain bounds {bounds})")
+        path, bands = write_design(airframe, args.out)
+        print(f"{airframe}: {path}")
+        for d in bands:
+            bounds = ", ".join(f"{s}: {v.gamma:.4g}" for s, v in d.sensors.items())
+            fit = d.meta["fit"]
+            lo, hi = d.alt_range_m
+            print(f"  {lo:g}-{hi:g} m: LPV fit A rel. error {fit['rel_A']:.3g}, B "
+                  f"{fit['rel_B']:.3g}; L2-gain bounds {bounds}")
     return 0
 
 

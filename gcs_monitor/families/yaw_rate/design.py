@@ -1,9 +1,16 @@
 """The stored observer designs: an LPV lateral model and its sliding-mode observer gains.
 
-A design file (JSON) holds the model (:class:`~gcs_monitor.models.lateral.LateralLpv`), its fit
+A design (JSON) holds the model (:class:`~gcs_monitor.models.lateral.LateralLpv`), its fit
 error, one :class:`~gcs_monitor.filters.lpv_smo.SmoDesign` per monitorable sensor (``"r"``,
-``"p"``, ...; each with its L2-gain bound) and the command that produced it. Designs of the
-simulator's airframes ship in ``designs/<airframe>.json`` (written by
+``"p"``, ...; each with its L2-gain bound), the pressure-altitude band it holds in and the
+command that produced it. A design file holds one design, or several altitude bands
+(``{"bands": [design, ...]}``): Chen2020 eq. 59 schedules on ``V_eas`` alone, which holds at one
+altitude only. At a given ``V_eas`` the damping derivatives (``L_p``, ``N_r``, ...) scale with
+``rho V_tas = V_eas sqrt(rho rho_0)`` and the kinematic terms with ``1 / V_tas``, so a model
+built at 1500 m reconstructs a fault of 0.4 deg/s in the S-turns of a fault-free flight at
+8800 m (docs/papers-notes.md, Chen2020); the shipped transport design has one LPV model and
+observer per band of 3 km, each built at its band's centre over the same ``V_eas`` range.
+Designs of the simulator's airframes ship in ``designs/<airframe>.json`` (written by
 ``gcs-monitor yaw-design --airframe NAME``); a real aircraft's comes from its clean flights
 (:func:`~gcs_monitor.models.lateral.identify_lateral_model`, then :func:`design_observer`,
 the same LMI design, which needs cvxpy: the ``design`` extra). Loading a design needs neither
@@ -13,6 +20,7 @@ the simulator nor an SDP solver.
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -34,15 +42,21 @@ class ObserverDesign:
     model : the LPV lateral model
     sensors : per lateral sensor name (an element of :data:`STATES`), its observer design
     meta : provenance (command, fit error, solver, bounds)
+    alt_range_m : the pressure altitudes (m) the model holds in; unbounded for a model
+        identified from flights (it holds where they flew: its file says which)
     """
 
     model: LateralLpv
     sensors: dict[str, SmoDesign]
     meta: dict[str, Any]
+    alt_range_m: tuple[float, float] = (-math.inf, math.inf)
 
     def to_dict(self) -> dict[str, Any]:
-        return {"version": DESIGN_VERSION, "model": self.model.to_dict(),
-                "sensors": {k: v.to_dict() for k, v in self.sensors.items()}, "meta": self.meta}
+        d = {"version": DESIGN_VERSION, "model": self.model.to_dict(),
+             "sensors": {k: v.to_dict() for k, v in self.sensors.items()}, "meta": self.meta}
+        if all(math.isfinite(a) for a in self.alt_range_m):
+            d["alt_range_m"] = list(self.alt_range_m)
+        return d
 
     @staticmethod
     def from_dict(d: dict[str, Any]) -> ObserverDesign:
@@ -53,7 +67,19 @@ class ObserverDesign:
         for k, v in sensors.items():
             if k not in STATES or v.faulty != (STATES.index(k),):
                 raise ValueError(f"design for sensor {k!r} has faulty outputs {v.faulty}")
-        return ObserverDesign(LateralLpv.from_dict(d["model"]), sensors, dict(d.get("meta", {})))
+        lo, hi = d.get("alt_range_m", (-math.inf, math.inf))
+        return ObserverDesign(LateralLpv.from_dict(d["model"]), sensors, dict(d.get("meta", {})),
+                              (float(lo), float(hi)))
+
+    def holds_at(self, alt_m: float) -> bool:
+        """Whether the model holds at this pressure altitude."""
+        lo, hi = self.alt_range_m
+        return lo <= alt_m < hi
+
+
+def bands_to_dict(bands: list[ObserverDesign], meta: dict[str, Any]) -> dict[str, Any]:
+    """A design file of several altitude bands (each a design dict), lowest first."""
+    return {"bands": [b.to_dict() for b in bands], "meta": meta}
 
 
 def builtin_designs() -> list[str]:
@@ -63,7 +89,14 @@ def builtin_designs() -> list[str]:
 
 
 def load_design(name_or_path: str) -> ObserverDesign:
-    """A shipped design by name (``"transport"``, ``"uav"``) or a design file by path."""
+    """The reference design of a shipped airframe (``"transport"``, ``"uav"``) or a design
+    file: its first altitude band (the one the airframe's evaluation flies in)."""
+    return load_bands(name_or_path)[0]
+
+
+def load_bands(name_or_path: str) -> list[ObserverDesign]:
+    """Every altitude band of a shipped design by name or of a design file by path, lowest
+    first; a file of one design is one band."""
     if name_or_path.endswith(".json"):
         text = Path(name_or_path).read_text()
     else:
@@ -73,7 +106,18 @@ def load_design(name_or_path: str) -> ObserverDesign:
             raise ValueError(f"unknown yaw-rate design {name_or_path!r}; shipped: "
                              f"{builtin_designs()} (or give a .json path)")
         text = res.read_text()
-    return ObserverDesign.from_dict(json.loads(text))
+    d = json.loads(text)
+    if "bands" not in d:
+        return [ObserverDesign.from_dict(d)]
+    bands = sorted((ObserverDesign.from_dict(b) for b in d["bands"]),
+                   key=lambda b: b.alt_range_m[0])
+    if not bands:
+        raise ValueError(f"yaw-rate design {name_or_path!r} has no band")
+    for a, b in zip(bands, bands[1:], strict=False):
+        if a.alt_range_m[1] > b.alt_range_m[0]:
+            raise ValueError(f"yaw-rate design {name_or_path!r}: altitude bands "
+                             f"{a.alt_range_m} and {b.alt_range_m} overlap")
+    return bands
 
 
 @dataclass(frozen=True, slots=True)

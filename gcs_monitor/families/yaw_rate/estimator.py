@@ -7,6 +7,11 @@ rates), ``u_p = [delta_a, delta_r]`` (surface positions, else commands, of DEBUG
 the barometric altitude (Chen2020 eq. 59). The observer (:mod:`gcs_monitor.filters.lpv_smo`)
 gives the fault estimate of the monitored gyro axis, low-passed to the equivalent output
 injection, and the corrected (virtual) gyro ``y - f_hat`` (Chen2020 eq. 24).
+
+A design of several altitude bands (:mod:`gcs_monitor.families.yaw_rate.design`) runs the band
+of the barometric altitude: on a change of band the observer re-anchors at the measurement with
+its fault estimate kept, as over a short gap; a band is kept up to ``BAND_HYSTERESIS_M`` beyond
+its edge (baro noise at an edge does not switch back and forth).
 """
 
 from __future__ import annotations
@@ -20,9 +25,16 @@ import numpy as np
 from gcs_monitor.core.atmosphere import tas_from_cas
 from gcs_monitor.core.types import ChannelId
 from gcs_monitor.families.yaw_rate.config import YawRateFamilyConfig
-from gcs_monitor.families.yaw_rate.design import ObserverDesign, load_design
+from gcs_monitor.families.yaw_rate.design import ObserverDesign, load_bands
 from gcs_monitor.fdi.records import Estimate
-from gcs_monitor.filters.lpv_smo import SmoDesign, SmoState, smo_init, smo_matrices, smo_step
+from gcs_monitor.filters.lpv_smo import (
+    SmoDesign,
+    SmoMatrices,
+    SmoState,
+    smo_init,
+    smo_matrices,
+    smo_step,
+)
 from gcs_monitor.models.lateral import STATES, eas_from_tas
 from gcs_monitor.telemetry.frame import Frame
 
@@ -32,6 +44,7 @@ AILERON, RUDDER = 0, 2  # surface indices of the telemetry contract
 # equivalent-injection low-pass
 EY_CHANNEL = ChannelId("smo_ey", 0)
 RAW_CHANNEL = ChannelId("smo_f_raw", 0)
+BAND_HYSTERESIS_M = 50.0  # a band is left this far beyond its edge
 
 
 @dataclass(frozen=True, slots=True)
@@ -42,6 +55,7 @@ class LateralInputs:
     u: np.ndarray | None
     eas_mps: float
     reason: str = ""
+    alt_m: float = math.nan
 
 
 def lateral_inputs(frame: Frame, stale_s: float) -> LateralInputs:
@@ -69,7 +83,8 @@ def lateral_inputs(frame: Frame, stale_s: float) -> LateralInputs:
     eas = eas_from_tas(tas_from_cas(v_cas, alt), alt) if math.isfinite(alt) else v_cas
     w = imu.omega_frd_radps
     return LateralInputs(np.array((frame.euler_rad[0], beta, w[0], w[2]), dtype=np.float64),
-                         np.array((surf[AILERON], surf[RUDDER]), dtype=np.float64), eas)
+                         np.array((surf[AILERON], surf[RUDDER]), dtype=np.float64), eas,
+                         alt_m=alt)
 
 
 class YawRateEstimator:
@@ -77,24 +92,33 @@ class YawRateEstimator:
 
     name = "yaw_rate_smo"
 
-    def __init__(self, cfg: YawRateFamilyConfig, *, design: ObserverDesign | None = None,
+    def __init__(self, cfg: YawRateFamilyConfig, *,
+                 design: ObserverDesign | list[ObserverDesign] | None = None,
                  stale_s: float = 0.5) -> None:
         self.cfg = cfg
-        self.design = design if design is not None else load_design(cfg.design)
-        if cfg.sensor not in self.design.sensors:
-            raise ValueError(f"design {cfg.design!r} has no observer for sensor {cfg.sensor!r}; "
-                             f"it has {sorted(self.design.sensors)}")
-        d: SmoDesign = self.design.sensors[cfg.sensor]
-        if cfg.observer.modulation > 0.0:
-            from dataclasses import replace
-
-            d = replace(d, k=cfg.observer.modulation)
-        m = self.design.model
-        self.mats = smo_matrices(m.A, m.B, m.c, d)
-        self.index = STATES.index(cfg.sensor)
-        lo, hi = m.eas_range_mps
+        bands = (load_bands(cfg.design) if design is None
+                 else [design] if isinstance(design, ObserverDesign) else list(design))
+        self.bands = bands
+        self.design = bands[0]
         mg = cfg.observer.eas_margin
-        self.eas_range = (lo * (1.0 - mg), hi * (1.0 + mg))
+        self._mats: list[SmoMatrices] = []
+        self._eas: list[tuple[float, float]] = []
+        for b in bands:
+            if cfg.sensor not in b.sensors:
+                raise ValueError(f"design {cfg.design!r} has no observer for sensor "
+                                 f"{cfg.sensor!r}; it has {sorted(b.sensors)}")
+            d: SmoDesign = b.sensors[cfg.sensor]
+            if cfg.observer.modulation > 0.0:
+                from dataclasses import replace
+
+                d = replace(d, k=cfg.observer.modulation)
+            m = b.model
+            self._mats.append(smo_matrices(m.A, m.B, m.c, d))
+            lo, hi = m.eas_range_mps
+            self._eas.append((lo * (1.0 - mg), hi * (1.0 + mg)))
+        self.mats = self._mats[0]
+        self.eas_range = self._eas[0]
+        self.index = STATES.index(cfg.sensor)
         # names the design in the coverage reason: another aircraft's speeds say which airframe
         # the model belongs to
         self.label = Path(cfg.design).name if cfg.design.endswith(".json") else cfg.design
@@ -104,7 +128,25 @@ class YawRateEstimator:
         self._reanchor_us = round(cfg.reanchor_s * US_PER_S)
         self._tau = cfg.observer.nu_filter_s
         self._channels: dict[int, ChannelId] = {}
+        self._band = 0
         self.reset()
+
+    def _band_at(self, alt_m: float) -> int:
+        """The band of this altitude (the current one while within its hysteresis), -1 if
+        none holds there; a design of one unbounded band holds everywhere."""
+        bands = self.bands
+        if len(bands) == 1 and not math.isfinite(bands[0].alt_range_m[0]) \
+                and not math.isfinite(bands[0].alt_range_m[1]):
+            return 0
+        if not math.isfinite(alt_m):
+            return -1
+        lo, hi = bands[self._band].alt_range_m
+        if lo - BAND_HYSTERESIS_M <= alt_m < hi + BAND_HYSTERESIS_M:
+            return self._band
+        for i, b in enumerate(bands):
+            if b.holds_at(alt_m):
+                return i
+        return -1
 
     def reset(self) -> None:
         self._s: SmoState | None = None
@@ -128,6 +170,25 @@ class YawRateEstimator:
         inp = lateral_inputs(frame, self.stale_s)
         if inp.y_p is None or inp.u is None:  # the next sample re-anchors over the gap
             return Estimate.unavailable(self.name, t, inp.reason)
+        band = self._band_at(inp.alt_m)
+        if band < 0:
+            self.reset()
+            lo_m, hi_m = self.bands[0].alt_range_m[0], self.bands[-1].alt_range_m[1]
+            if not math.isfinite(inp.alt_m):
+                return Estimate.unavailable(
+                    self.name, t, f"no altitude (baro or GPS): the {self.label!r} design's "
+                    "models hold per altitude band")
+            return Estimate.unavailable(
+                self.name, t, f"altitude {inp.alt_m:.0f} m outside the {self.label!r} "
+                f"design's {lo_m:.0f}-{hi_m:.0f} m (its models hold only there)")
+        if band != self._band:
+            self._band = band
+            self.mats = self._mats[band]
+            self.eas_range = self._eas[band]
+            if self._s is not None and self._last_us is not None:
+                # another band's model: re-anchor at the measurement, keeping the fault
+                # estimate (as over a short gap of the same gyro)
+                self._s = smo_init(self.mats, inp.y_p, self._fault_vec(self._f_lp))
         lo, hi = self.eas_range
         if not lo <= inp.eas_mps <= hi:
             self.reset()
