@@ -56,7 +56,8 @@ class YawRateFamilyConfig:
     design: str = param("transport", "observer design: a shipped airframe (transport, uav) or "
                         "the path of a design .json, relative to the configuration file's "
                         "folder (gcs-monitor yaw-design; gcs-monitor calibrate writes one "
-                        "beside its TOML); the family judges only inside its speed range",
+                        "beside its TOML); the family judges only inside its speed range and "
+                        "altitude bands",
                         file=True)
     sensor: str = param("r", "the lateral gyro axis whose faults are reconstructed (r: yaw "
                         "rate, Chen2020; p: roll rate)", choices=SENSORS)
