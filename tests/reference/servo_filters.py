@@ -165,6 +165,6 @@ class ReferenceServoFilters:
         Pf = rts.Pf
         return {"f_in": float(new.f[0]), "u": u + float(new.f[0]), "x": x[:3].copy(),
                 "x_nom": rts.x[:3].copy(), "f_rod": float(rts.f[0]), "f_surf": float(rts.f[1]),
-                "sf_rod": math.sqrt(Pf[0, 0] + env * env / 12.0),
+                "sf_rod": math.sqrt(Pf[0, 0] + env * env / 12.0), "env": env,
                 "sf_d": math.sqrt(Pf[0, 0] + Pf[1, 1] - 2.0 * Pf[0, 1]), "jit": jit,
                 "nu": float(innov.nu[0]), "lead": lead}

@@ -72,8 +72,8 @@ N_STATE = S_LFREEZE + 1
 N_CFG = 19
 # output row (servo_filters.O_*)
 (O_F_IN, O_U, O_X1, O_X2, O_X3, O_N1, O_N2, O_N3, O_F_ROD, O_F_SURF, O_NU, O_S, O_Q_COM,
- O_Y_ROD, O_Y_SURF, O_SF_ROD, O_SF_D, O_JIT, O_LEAD) = range(19)
-N_OUT = 19
+ O_Y_ROD, O_Y_SURF, O_SF_ROD, O_SF_D, O_JIT, O_LEAD, O_ENV) = range(20)
+N_OUT = 20
 OK = 0
 SPREAD_PER_RMS = 0.5  # sqrt(1.5) / sqrt(6)
 JIT_TRIM = 2  # largest second differences left out of the spread (a step's pair)
@@ -427,6 +427,7 @@ def surface_step(st, dt, cmd_rad, y_rod, y_surf_rad, prm, cfg, out):
     out[O_SF_D] = math.sqrt(max(Pfr[0, 0] + Pfr[1, 1] - 2.0 * Pfr[0, 1], 0.0))
     out[O_JIT] = jitv
     out[O_LEAD] = lead
+    out[O_ENV] = env
     return OK
 
 

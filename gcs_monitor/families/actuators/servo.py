@@ -12,10 +12,11 @@ Per SURF sample and surface (aileron, elevator, rudder), :class:`ServoTier`
   :func:`~gcs_monitor.fdi.config.channel_params` with the measured SURF period): the input
   fault estimate ``f_hat^i`` (valve units) against a J_th that grows with the unseen-command
   spread the filters estimate (``input_per_jitter``: commands that jump between SURF samples
-  leave the model uncertain, papers-notes), and the output fault in sigmas of the RTS-EKF's own
-  ``P^f`` (eq. 43, plus the nominal servo's timing envelope) -- the rod sensor's deviation from
-  the nominal servo or the rod-surface disagreement, the larger; when either confirms, it
-  classifies the surface's fault (``servo_classify.py``) and raises one
+  leave the model uncertain, papers-notes; over a command step that saturates the valve, the
+  nominal servo's timing envelope, held over the RMS window), and the output fault in sigmas
+  of the RTS-EKF's own ``P^f`` (eq. 43, plus the nominal servo's timing envelope) -- the rod
+  sensor's deviation from the nominal servo or the rod-surface disagreement, the larger; when
+  either confirms, it classifies the surface's fault (``servo_classify.py``) and raises one
   ``actuator_fault`` alarm on ``ChannelId("surface", k, "input" | "output")`` with the case in
   the message, the fault type (oscillation, bias, stuck, runaway) and the magnitude (OFC
   amplitude in valve units, rod-sensor bias or stuck rod position in m, runaway rate in m/s);
@@ -40,6 +41,7 @@ filters' warm-up it reports why it does not judge.
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -56,6 +58,7 @@ from gcs_monitor.families.actuators.servo_classify import (
 )
 from gcs_monitor.families.actuators.servo_filters import (
     N_OUT,
+    O_ENV,
     O_F_IN,
     O_F_ROD,
     O_F_SURF,
@@ -136,6 +139,7 @@ INPUT_THRESHOLD = 0.026
 INPUT_PER_JITTER = 9.3  # valve per m of unseen-command spread
 OUTPUT_THRESHOLD_SIGMA = 3.5
 OUTPUT_PER_JITTER = 0.0  # sigmas per m: the RTS-EKF's P^f carries the command uncertainty
+ENV_SIGMA = 1.0 / math.sqrt(12.0)  # sigma of a uniform spread over the timing envelope
 
 
 @dataclass(frozen=True, slots=True)
@@ -152,7 +156,9 @@ class ServoFdiSets:
         "(sigmas)", unit=SIGMA)
     input_per_jitter: float = param(
         INPUT_PER_JITTER, "growth of the input J_th per m of unseen-command spread (the rod "
-        "command's jumps between SURF samples, see servo_filters.ServoFilters)")
+        "command's jumps between SURF samples, see servo_filters.ServoFilters; over a "
+        "saturated slew, the nominal servo's timing envelope / sqrt(12), the larger over the "
+        "RMS window)")
     output_per_jitter: float = param(
         OUTPUT_PER_JITTER, "growth of the output J_th (sigmas) per m of unseen-command spread")
 
@@ -239,6 +245,8 @@ class _SurfaceFdi:
         self.conf = {a: Confirmation(self.p[a].confirmation) for a in AXES}
         self.J = {a: 0.0 for a in AXES}
         self.faulty = {a: False for a in AXES}
+        # |timing envelope| of the samples in the input RMS window (m of rod)
+        self.env: deque[float] = deque(maxlen=p_in.rms.rms_window_n)
         ctx = tier.ctx
         self.alarm = {a: AlarmStateMachine(servo_channel(surface, a), AlarmKind.ACTUATOR_FAULT,
                                            ESTIMATORS[a], params=ctx.alarm, vehicle=ctx.vehicle)
@@ -265,7 +273,14 @@ class _SurfaceFdi:
         z_d = (f_rod - row[O_F_SURF]) / row[O_SF_D]
         v_out = z_rod if abs(z_rod) >= abs(z_d) else z_d
         self.hist.push(row)
-        jit = row[O_JIT]
+        # the command's unknown profile as a rod spread: unseen samples (jit) and when a
+        # change took effect inside the interval, whose effect the linearised timing noise
+        # misses while the valve saturates (the envelope: uniform, sigma env / sqrt(12)); the
+        # envelope of every sample in the window counts, as each sample's error does in J
+        env = self.env
+        env.append(abs(row[O_ENV]))
+        e = max(env) * ENV_SIGMA
+        jit = math.sqrt(row[O_JIT] ** 2 + e * e) if e > 0.0 else row[O_JIT]
         J, th_now, faulty = self.J, self.th, self.faulty
         for (a, rms, conf, threshold, per_jitter, channel, estimator), value in zip(
                 self._axes, (row[O_F_IN], v_out), strict=True):
@@ -353,6 +368,7 @@ class _SurfaceFdi:
             self.J[a] = 0.0
             self.faulty[a] = False
         self.hist.clear()
+        self.env.clear()
         self.onset_n = 0
         return ev
 

@@ -114,8 +114,8 @@ class ServoFilterConfig:
 
 # the output row of one surface (ServoFilters.step): the kernel's O_* indices
 (O_F_IN, O_U, O_X1, O_X2, O_X3, O_N1, O_N2, O_N3, O_F_ROD, O_F_SURF, O_NU, O_S, O_Q_COM,
- O_Y_ROD, O_Y_SURF, O_SF_ROD, O_SF_D, O_JIT, O_LEAD) = range(19)
-N_OUT = 19
+ O_Y_ROD, O_Y_SURF, O_SF_ROD, O_SF_D, O_JIT, O_LEAD, O_ENV) = range(20)
+N_OUT = 20
 _KERNEL = "gcs_monitor.families.actuators._servo_filters_jit"
 
 

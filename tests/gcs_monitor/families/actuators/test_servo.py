@@ -22,6 +22,7 @@ from gcs_monitor.families.actuators.servo import (
 )
 from gcs_monitor.families.actuators.servo_filters import (
     N_OUT,
+    O_ENV,
     O_F_IN,
     O_F_ROD,
     O_F_SURF,
@@ -216,7 +217,7 @@ def test_kernel_equals_reference(case: str) -> None:
         for i, key, scale in ((O_F_IN, "f_in", 1.0), (O_U, "u", 1.0), (O_F_ROD, "f_rod", 0.1),
                               (O_F_SURF, "f_surf", 0.1), (O_SF_ROD, "sf_rod", 1e-3),
                               (O_SF_D, "sf_d", 1e-3), (O_JIT, "jit", 1e-3),
-                              (O_LEAD, "lead", 1e-3)):
+                              (O_LEAD, "lead", 1e-3), (O_ENV, "env", 1e-3)):
             assert abs(out[i] - r[key]) <= 1e-12 * scale + 1e-12 * abs(r[key]), key
         np.testing.assert_allclose(out[O_X1:O_X1 + 3], r["x"], rtol=1e-9, atol=1e-13)
 
