@@ -29,7 +29,7 @@ from gcs_monitor.core.types import ChannelId
 from gcs_monitor.evaluation import scenarios
 from gcs_monitor.evaluation.campaign import run_records
 from gcs_monitor.evaluation.configs import with_declared_weather
-from gcs_monitor.evaluation.records import METHOD_MEDIAN, METHOD_MONITOR
+from gcs_monitor.evaluation.records import METHOD_MEDIAN, METHOD_MONITOR, RunRecord
 from gcs_monitor.evaluation.report import METHOD_LABEL, fmt_fixed, md_table, write_csv
 from gcs_monitor.evaluation.runner import run_parallel
 from gcs_monitor.evaluation.runs import feed_packets
@@ -358,7 +358,8 @@ def presets_without_declared_weather(out: Path, jobs: int = 2, quick: bool = Fal
 
 
 def weather_campaign_markdown(title: str, tables: dict[str, dict[str, list[MetricsRow]]],
-                              n_runs: int, wall_s: float, jobs: int, command: str) -> str:
+                              n_runs: int, wall_s: float, jobs: int, command: str, *,
+                              both: bool = True) -> str:
     """Table IV rows of the monitor and the median vote, declared against estimated weather."""
     rows = []
     for weather, tab in tables.items():
@@ -368,8 +369,9 @@ def weather_campaign_markdown(title: str, tables: dict[str, dict[str, list[Metri
                              r.n_faulty, fmt_fixed(r.far_pct), fmt_fixed(r.mdr_pct),
                              fmt_fixed(r.fir_pct), fmt_fixed(r.delay_max_s),
                              fmt_fixed(r.delay_mean_s)])
-    return (f"{title}: {n_runs} runs, default configuration, each run twice (its weather "
-            f"declared as a forecast, and none declared: estimated from the flight); wall "
+    how = ("each run twice (its weather declared as a forecast, and none declared: estimated "
+           "from the flight)" if both else "no weather declared (estimated from the flight)")
+    return (f"{title}: {n_runs} runs, default configuration, {how}; wall "
             f"{wall_s:.0f} s with {jobs} job(s). `{command}`\n\n"
             + md_table(["weather", "method", "group", "fault-free runs", "faulty runs",
                         "FAR [%]", "MDR [%]", "FIR [%]", "DetD max [s]", "DetD mean [s]"],
@@ -377,21 +379,60 @@ def weather_campaign_markdown(title: str, tables: dict[str, dict[str, list[Metri
 
 
 def _weather_campaign(title: str, scs: Sequence[Scenario], out: Path, jobs: int,
-                      command: str) -> str:
+                      command: str, *, labels: Sequence[tuple[str, bool]] = (
+                          ("declared", True), ("estimated", False))) -> str:
     t0 = time.perf_counter()
     cfg = MonitorConfig()
     tables: dict[str, dict[str, list[MetricsRow]]] = {}
-    for label, declare in (("declared", True), ("estimated", False)):
+    extra = ""
+    for label, declare in labels:
         recs = run_records(scs, cfg, jobs, desc=f"{title} ({label})", declare_weather=declare)
         tables[label] = tables_of(recs)
         header = ["run", "scenario", "faulty", "monitor alarms", "median alarms"]
         write_csv(out / f"runs_{label}.csv", header,
                   [[r.index, r.name, r.faulty, r.raised.get(METHOD_MONITOR, 0),
                     r.raised.get(METHOD_MEDIAN, 0)] for r in recs])
+        extra += "\n\n" + false_alarms_by_family(recs, scs, out / f"alarms_{label}.csv",
+                                                  label)
     md = weather_campaign_markdown(title, tables, len(scs), time.perf_counter() - t0, jobs,
-                                   command)
+                                   command, both=len(labels) > 1) + extra
     (out / "weather_campaign.md").write_text(md + "\n")
     return md
+
+
+def false_alarms_by_family(recs: Sequence[RunRecord], scs: Sequence[Scenario], path: Path,
+                           label: str) -> str:
+    """Every raise of the monitor on a channel without an injected fault (the campaign injects
+    air-data faults only: any IMU, yaw-rate or actuator alarm is false; a set-level event of a
+    set with an injected fault is not), written to ``path``
+    with the run's manoeuvre, altitude and wind; Markdown: per estimator, the runs with such a
+    raise. ``monitor_degraded`` (a family not judging) is counted apart: it is coverage, not a
+    fault alarm."""
+    rows: list[list[Any]] = []
+    runs: dict[str, set[int]] = {}
+    for r, sc in zip(recs, scs, strict=True):
+        faulty = {f.channel for f in r.faults}
+        faulty_sets = {f.channel.kind for f in r.faults}
+        for e in r.events:
+            if e.state is not AlarmState.RAISED or e.channel in faulty or (
+                    e.channel.instance < 0 and e.channel.kind in faulty_sets):
+                continue  # the fault, or its set's state (lost, degraded) while it is faulty
+            key = "monitor_degraded" if e.kind is AlarmKind.MONITOR_DEGRADED else e.estimator
+            runs.setdefault(key, set()).add(r.index)
+            rows.append([r.index, r.name, sc.manoeuvre.kind, f"{sc.initial.alt_m:.0f}",
+                         f"{sc.wind.kind} {sc.wind.turbulence_sigma_mps:.2f}",
+                         f"{e.t_us * 1e-6:.2f}", str(e.channel), e.kind.value,
+                         e.fault_type.value, e.estimator, f"{e.residual_rms:.4g}",
+                         f"{e.threshold:.4g}", e.message])
+    write_csv(path, ["run", "scenario", "manoeuvre", "alt [m]", "wind", "t [s]", "channel",
+                     "kind", "type", "estimator", "J", "J_th", "message"], rows)
+    table = [[k, len(v), fmt_fixed(100.0 * len(v) / max(len(recs), 1)),
+              " ".join(str(i) for i in sorted(v)[:12]) + (" ..." if len(v) > 12 else "")]
+             for k, v in sorted(runs.items())]
+    return (f"Raises on channels without an injected fault ({label} weather), per estimator "
+            f"(every raise: `{path.name}`):\n\n"
+            + (md_table(["estimator", "runs", "runs [%]", "first runs"], table) if table
+               else "none"))
 
 
 def wan2018_campaign_weather(out: Path, jobs: int = 2, quick: bool = False) -> str:
@@ -402,6 +443,18 @@ def wan2018_campaign_weather(out: Path, jobs: int = 2, quick: bool = False) -> s
     return _weather_campaign("Wan2018 campaign", campaign_scenarios(n, CAMPAIGN_SEED, dur),
                              out, jobs, "gcs-monitor evaluate --experiment "
                              f"wan2018_campaign_weather{' --quick' if quick else ''}")
+
+
+def wan2018_campaign_defaults(out: Path, jobs: int = 2, quick: bool = False) -> str:
+    """The 249-run Wan2018 campaign with the default configuration and no weather declared
+    (``wan2018_campaign_weather`` showed declared = estimated, run for run): Table IV and every
+    false raise of every family, with the run's manoeuvre, altitude and wind."""
+    n, dur = (12, (40.0, 60.0)) if quick else (249, FULL_DURATION_S)
+    out.mkdir(parents=True, exist_ok=True)
+    return _weather_campaign("Wan2018 campaign", campaign_scenarios(n, CAMPAIGN_SEED, dur),
+                             out, jobs, "gcs-monitor evaluate --experiment "
+                             f"wan2018_campaign_defaults{' --quick' if quick else ''}",
+                             labels=(("estimated", False),))
 
 
 def triplex_weather(out: Path, jobs: int = 2, quick: bool = False) -> str:
@@ -468,4 +521,5 @@ def experiments() -> dict[str, Callable[[Path, int, bool], str]]:
             "gps_rate_accuracy": gps_rate_accuracy,
             "presets_weather": presets_without_declared_weather,
             "wan2018_campaign_weather": wan2018_campaign_weather,
+            "wan2018_campaign_defaults": wan2018_campaign_defaults,
             "triplex_weather": triplex_weather}
