@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import collections
 import dataclasses
+import json
 import math
 import re
 from collections.abc import Callable
@@ -45,10 +46,10 @@ from gcs_monitor.evaluation.report import md_table, pyplot, write_csv
 from gcs_monitor.evaluation.runner import run_parallel
 from gcs_monitor.evaluation.runs import feed_packets
 from gcs_monitor.families.yaw_rate.config import ObserverConfig, YawRateFamilyConfig
-from gcs_monitor.families.yaw_rate.design import load_bands
+from gcs_monitor.families.yaw_rate.design import ObserverDesign, load_bands
 from gcs_monitor.families.yaw_rate.estimator import EY_CHANNEL, YawRateEstimator
 from gcs_monitor.fdi.events import AlarmEvent, AlarmKind, AlarmState
-from gcs_monitor.models.lateral import identify_lateral_model
+from gcs_monitor.models.lateral import eas_from_tas, identify_lateral_model
 from gcs_monitor.monitor import Monitor
 from gcs_monitor.telemetry.frame import Frame, ImuSample
 from sim_vehicle.dynamics.linearise import lateral_lti
@@ -490,6 +491,55 @@ def chen2020_false_alarms(out_dir: Path, jobs: int = 1, quick: bool = False) -> 
             f"{1.5 * worst:.3f} deg/s):\n\n" + md_table(header, rows) + "\n")
 
 
+ALTITUDES_M = (1500.0, 3000.0, 4500.0, 6000.0, 7500.0, 9000.0, 10500.0)
+ALTITUDE_EAS_MPS = 150.0  # one equivalent airspeed at every altitude: q-bar the same
+ALTITUDE_MANOEUVRES = ("s_turn", "coordinated_turn")
+
+
+def _altitude_job(job: tuple[str, float, str, str]) -> tuple[str, float, str, float, int]:
+    manoeuvre, alt_m, label, design = job
+    sc = _ff_scenario(manoeuvre, "aileron", 1.0, 101)
+    tas = ALTITUDE_EAS_MPS / eas_from_tas(1.0, alt_m)
+    sc = dataclasses.replace(sc, name=f"{manoeuvre}_{alt_m:.0f}m", duration_s=120.0,
+                             initial=dataclasses.replace(sc.initial, alt_m=alt_m, tas_mps=tas))
+    cfg = monitor_config(design=design)
+    for fam in ("imu", "actuators"):
+        cfg = cfg.with_family(fam, enabled=False)
+    r = open_loop_run(sc, cfg.with_family("airdata", estimator="none"))
+    return manoeuvre, alt_m, label, r.j_max, len(observer_alarms(r.events,
+                                                                 ChannelId("gyro", 0, "r")))
+
+
+def chen2020_altitudes(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
+    """Fault-free S-turns and coordinated turns of the transport at one equivalent airspeed
+    (150 m/s) from 1500 to 10500 m (sigma 1 m/s, 120 s), the yaw-rate family alone: the worst J
+    of the reconstructed yaw-rate fault with the model of the reference band only (built at
+    1500 m, Chen2020 eq. 59 as printed: V_eas alone) and with the shipped altitude bands.
+    ``quick``: the S-turn only."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    ref = load_bands("transport")[0]
+    one = out_dir / "transport_reference_band_only.json"
+    one.write_text(json.dumps(ObserverDesign(ref.model, ref.sensors, ref.meta).to_dict()))
+    designs = (("reference band only (1500 m)", str(one)), ("altitude bands", "transport"))
+    mans = ALTITUDE_MANOEUVRES[:1] if quick else ALTITUDE_MANOEUVRES
+    args = [(m, a, label, d) for m in mans for a in ALTITUDES_M for label, d in designs]
+    res = run_parallel(_altitude_job, args, jobs, desc="chen2020_altitudes")
+    th = monitor_config().family("yaw_rate").fdi.threshold * RAD2DEG
+    by: dict[tuple[str, float], dict[str, tuple[float, int]]] = {}
+    for m, a, label, j, n in res:
+        by.setdefault((m, a), {})[label] = (j * RAD2DEG, n)
+    header = ["manoeuvre", "altitude [m]", "TAS [m/s]"] + [
+        h for label, _ in designs for h in (f"{label}: max J [deg/s]", f"{label}: alarms")]
+    rows = [[m, f"{a:.0f}", f"{ALTITUDE_EAS_MPS / eas_from_tas(1.0, a):.0f}"]
+            + [x for label, _ in designs for x in (f"{v[label][0]:.3f}", v[label][1])]
+            for (m, a), v in by.items()]
+    write_csv(out_dir / "chen2020_altitudes.csv", header, rows)
+    return (f"Fault-free turns at V_eas {ALTITUDE_EAS_MPS:.0f} m/s, J_th = {th:.2f} deg/s "
+            "(yaw-rate family alone, sigma 1 m/s, seed 101):\n\n" + md_table(header, rows)
+            + "\n")
+
+
 def chen2020_roll_rate(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
     """The same observer class on the roll-rate gyro (H_p = e_3): the four cases' faults on p,
     closed loop (the autopilot's roll-rate loop on the raw and the corrected gyro) and open
@@ -732,4 +782,5 @@ def experiments() -> dict[str, Callable[[Path, int, bool], str]]:
             "chen2020_open_loop": chen2020_open_loop,
             "chen2020_false_alarms": chen2020_false_alarms,
             "chen2020_roll_rate": chen2020_roll_rate, "chen2020_identify": chen2020_identify,
-            "chen2020_tuning": chen2020_tuning, "chen2020_uav": chen2020_uav}
+            "chen2020_tuning": chen2020_tuning, "chen2020_uav": chen2020_uav,
+            "chen2020_altitudes": chen2020_altitudes}
