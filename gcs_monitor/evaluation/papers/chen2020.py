@@ -531,9 +531,10 @@ def chen2020_altitudes(out_dir: Path, jobs: int = 1, quick: bool = False) -> str
         by.setdefault((m, a), {})[label] = (j * RAD2DEG, n)
     header = ["manoeuvre", "altitude [m]", "TAS [m/s]"] + [
         h for label, _ in designs for h in (f"{label}: max J [deg/s]", f"{label}: alarms")]
-    rows = [[m, f"{a:.0f}", f"{ALTITUDE_EAS_MPS / eas_from_tas(1.0, a):.0f}"]
-            + [x for label, _ in designs for x in (f"{v[label][0]:.3f}", v[label][1])]
-            for (m, a), v in by.items()]
+    rows: list[list[Any]] = [
+        [m, f"{a:.0f}", f"{ALTITUDE_EAS_MPS / eas_from_tas(1.0, a):.0f}"]
+        + [x for label, _ in designs for x in (f"{v[label][0]:.3f}", str(v[label][1]))]
+        for (m, a), v in by.items()]
     write_csv(out_dir / "chen2020_altitudes.csv", header, rows)
     return (f"Fault-free turns at V_eas {ALTITUDE_EAS_MPS:.0f} m/s, J_th = {th:.2f} deg/s "
             "(yaw-rate family alone, sigma 1 m/s, seed 101):\n\n" + md_table(header, rows)
