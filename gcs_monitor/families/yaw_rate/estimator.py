@@ -17,7 +17,7 @@ its edge (baro noise at an edge does not switch back and forth).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -109,8 +109,6 @@ class YawRateEstimator:
                                  f"{cfg.sensor!r}; it has {sorted(b.sensors)}")
             d: SmoDesign = b.sensors[cfg.sensor]
             if cfg.observer.modulation > 0.0:
-                from dataclasses import replace
-
                 d = replace(d, k=cfg.observer.modulation)
             m = b.model
             self._mats.append(smo_matrices(m.A, m.B, m.c, d))
