@@ -16,11 +16,6 @@ the file (TlogSource chunks -> ...):
   the assembler consumes -- what a specialised decoder could reach.
 
     .venv/bin/python benchmarks/bench_replay.py [--duration S] [--cache DIR] [--repeat N]
-        [--gc-gen0 N]
-
-``--gc-gen0 10000`` sets the garbage collector's generation-0 threshold that ``gcs-monitor
-replay`` uses (``cli.REPLAY_GC_GEN0``); without it the stages run at CPython's default (700),
-as all the tables of docs/results.md before it.
 
 Each stage is warmed up on the first 5 % of the flight (numba kernels loaded), then the stages
 run interleaved ``--repeat`` times; the table gives the median wall-clock and CPU-time
@@ -31,7 +26,6 @@ from __future__ import annotations
 
 import argparse
 import binascii
-import gc
 import os
 import statistics
 import struct
@@ -174,11 +168,7 @@ def main() -> None:
     ap.add_argument("--only", action="append",
                     choices=["decode", "assemble", "fdi", "full", "full_no_yaw", "full_no_act",
                              "bound"])
-    ap.add_argument("--gc-gen0", type=int, help="generation-0 threshold of the garbage "
-                    "collector (gcs-monitor replay: 10000; default: CPython's, 700)")
     args = ap.parse_args()
-    if args.gc_gen0:
-        gc.set_threshold(args.gc_gen0, *gc.get_threshold()[1:])
     args.cache.mkdir(parents=True, exist_ok=True)
     path = flight_tlog(args.cache, args.duration)
     t0 = time.perf_counter()
@@ -205,7 +195,7 @@ def main() -> None:
     stages = [st for st in stages if not args.only or st[0] in args.only]
     print(f"\n{path.name}: {args.duration:.0f} s flight, {n_bytes / 1e6:.1f} MB, "
           f"{len(chunks)} chunks (tlog read {t_read:.2f} s); load average before: "
-          f"{os.getloadavg()[0]:.1f}; gc thresholds {gc.get_threshold()}\n", flush=True)
+          f"{os.getloadavg()[0]:.1f}\n", flush=True)
     # warm-up on the first 5 % of the flight: imports, numba kernels loaded from the disk cache
     # (compiled on the very first run), caches; not part of the steady replay speed
     for _, _, fn in stages:

@@ -6,15 +6,13 @@ Argument parsing and printing only; the work is done by the library modules.
 from __future__ import annotations
 
 import argparse
-import contextlib
 import dataclasses
-import gc
 import logging
 import math
 import os
 import sys
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -557,35 +555,7 @@ def _tlog_counts(monitor: Any) -> dict[str, int]:
     return out
 
 
-# generation-0 threshold of the garbage collector during a replay (CPython's default: 700)
-REPLAY_GC_GEN0 = 10_000
-
-
-@contextlib.contextmanager
-def _replay_gc() -> Iterator[None]:
-    """A higher generation-0 threshold of the cyclic garbage collector for a replay; restored
-    after it.
-
-    A replay allocates and frees about a thousand tracked objects per chunk (the decoded
-    messages, Frames, estimates), which reference counting frees: at the default threshold the
-    collector still ran every two chunks and took about 5 % of the CPU time of the default
-    families' replay of the benchmark flight (``benchmarks/bench_replay.py --gc-gen0``); at
-    this one it did not run in the first 200 s of it. Collections still run, only less often;
-    the results do not depend on them."""
-    old = gc.get_threshold()
-    gc.set_threshold(max(old[0], REPLAY_GC_GEN0), *old[1:])
-    try:
-        yield
-    finally:
-        gc.set_threshold(*old)
-
-
 def cmd_replay(args: argparse.Namespace) -> int:
-    with _replay_gc():
-        return _replay_all(args)
-
-
-def _replay_all(args: argparse.Namespace) -> int:
     from gcs_monitor.convert.logbase import LogError
 
     failures: list[tuple[Path, str]] = []
