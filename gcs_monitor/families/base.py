@@ -81,8 +81,8 @@ class FamilyContext:
 
     vehicle : MAVLink sysid stamped on its alarm events
     stale_after_s : an input older than this is invalid (``[telemetry] stale_after_s``)
-    statuses : build per-channel status records (off when no sink or callback reads them;
-        alarms are the same either way)
+    statuses : build per-channel status records, and the estimates that only sinks and
+        callbacks read (off when no sink or callback reads them; alarms are the same either way)
     alarm : alarm update policy (``[alarms]``)
     classifier : the classifier's shape tests (``[classifier]``)
     """

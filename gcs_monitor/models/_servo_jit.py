@@ -118,20 +118,39 @@ def ndi(s, q_com, prm, grad):
 
 
 @jit
-def deriv(s, q_com, f_in, prm, d):
-    """``d = ds/dt`` (6,) of the closed loop with input fault ``f_in`` (valve units)."""
-    u, _g0, _g1, _g2, _ib, _sat = _ndi(s, q_com, prm)
+def params_tuple(prm):
+    """The ``P_*`` constants of ``prm`` (N_PARAMS,) as a tuple: the RK4 stages pass tuples of
+    floats, not arrays (a call passing an array costs an atomic reference-count increment and
+    decrement, more than the arithmetic of a stage)."""
+    return (prm[0], prm[1], prm[2], prm[3], prm[4], prm[5], prm[6], prm[7], prm[8], prm[9],
+            prm[10], prm[11], prm[12], prm[13], prm[14], prm[15])
+
+
+@jit
+def _state_tuple(s):
+    return (s[0], s[1], s[2], s[3], s[4], s[5])
+
+
+@jit
+def _deriv(s, q_com, f_in, p):
+    """:func:`deriv` on tuples: ``s`` (6,) and the constants ``p`` (:func:`params_tuple`);
+    returns ``ds/dt`` as a tuple."""
+    u, _g0, _g1, _g2, _ib, _sat = _ndi(s, q_com, p)
     ut = u + f_in
     sg = 1.0 if ut >= 0.0 else -1.0
     arg = 1.0 - sg * s[2]
-    flow = prm[P_VMAX] * (math.sqrt(arg) if arg > 0.0 else 0.0) * ut
-    cx, _dc = chamber(s[0], prm)
-    d[0] = s[1]
-    d[1] = (prm[P_APS] * s[2] - prm[P_BB] * s[1]) * prm[P_INV_M]
-    d[2] = cx * (flow - prm[P_LEAK] * s[2] - s[1])
-    d[3] = s[4]
-    d[4] = s[5]
-    d[5] = reference_jerk(s, q_com, prm)
+    flow = p[P_VMAX] * (math.sqrt(arg) if arg > 0.0 else 0.0) * ut
+    cx, _dc = chamber(s[0], p)
+    return (s[1], (p[P_APS] * s[2] - p[P_BB] * s[1]) * p[P_INV_M],
+            cx * (flow - p[P_LEAK] * s[2] - s[1]), s[4], s[5], reference_jerk(s, q_com, p))
+
+
+@jit
+def deriv(s, q_com, f_in, prm, d):
+    """``d = ds/dt`` (6,) of the closed loop with input fault ``f_in`` (valve units)."""
+    r = _deriv(_state_tuple(s), q_com, f_in, params_tuple(prm))
+    for i in range(N_S):
+        d[i] = r[i]
 
 
 @jit
@@ -179,20 +198,29 @@ def jacobian(s, q_com, f_in, prm, A, G):
 
 
 @jit
-def _rk4(s, qa, qm, qb, f_in, h, prm, k1, k2, k3, k4, t):
-    """One RK4 step of :func:`deriv` in place on ``s`` (command qa, qm, qb at 0, h/2, h)."""
-    deriv(s, qa, f_in, prm, k1)
-    for i in range(N_S):
-        t[i] = s[i] + 0.5 * h * k1[i]
-    deriv(t, qm, f_in, prm, k2)
-    for i in range(N_S):
-        t[i] = s[i] + 0.5 * h * k2[i]
-    deriv(t, qm, f_in, prm, k3)
-    for i in range(N_S):
-        t[i] = s[i] + h * k3[i]
-    deriv(t, qb, f_in, prm, k4)
-    for i in range(N_S):
-        s[i] = s[i] + h / 6.0 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
+def _axpy(x, a, k):
+    """``x + a k`` per element of two 6-tuples (``x[i] + a * k[i]``)."""
+    return (x[0] + a * k[0], x[1] + a * k[1], x[2] + a * k[2], x[3] + a * k[3],
+            x[4] + a * k[4], x[5] + a * k[5])
+
+
+@jit
+def _rk4_sum(k1, k2, k3, k4):
+    """``k1 + 2 (k2 + k3) + k4`` per element (RK4's weighted slope, times h / 6)."""
+    return (k1[0] + 2.0 * (k2[0] + k3[0]) + k4[0], k1[1] + 2.0 * (k2[1] + k3[1]) + k4[1],
+            k1[2] + 2.0 * (k2[2] + k3[2]) + k4[2], k1[3] + 2.0 * (k2[3] + k3[3]) + k4[3],
+            k1[4] + 2.0 * (k2[4] + k3[4]) + k4[4], k1[5] + 2.0 * (k2[5] + k3[5]) + k4[5])
+
+
+@jit
+def _rk4(s, qa, qm, qb, f_in, h, p):
+    """One RK4 step of :func:`deriv` from the state tuple ``s`` (command qa, qm, qb at 0, h/2,
+    h); returns the new state tuple."""
+    k1 = _deriv(s, qa, f_in, p)
+    k2 = _deriv(_axpy(s, 0.5 * h, k1), qm, f_in, p)
+    k3 = _deriv(_axpy(s, 0.5 * h, k2), qm, f_in, p)
+    k4 = _deriv(_axpy(s, h, k3), qb, f_in, p)
+    return _axpy(s, h / 6.0, _rk4_sum(k1, k2, k3, k4))
 
 
 @jit
@@ -207,7 +235,7 @@ def command_at(qc0, qc1, t, t_knee):
 @jit
 def _stage_tangent(s, q, f_in, prm, M, A, G, K):
     """``K = A(s) M + [0 | G(s)]`` (6, 7): the variational equation of the closed loop for the
-    tangent ``M = [d s / d s_0 | d s / d f^i]``."""
+    tangent ``M = [d s / d s_0 | d s / d f^i]`` (``s``, ``prm``: arrays or tuples)."""
     jacobian(s, q, f_in, prm, A, G)
     for i in range(N_S):
         for j in range(N_S + 1):
@@ -239,18 +267,17 @@ def propagate(s, qc0, qc1, f_in, dt, t_knee, n_sub, prm, jac, q_valve, q_state, 
     states alone with the reference states given.
     """
     h = dt / n_sub
-    k1 = np.empty(N_S)
-    k2 = np.empty(N_S)
-    k3 = np.empty(N_S)
-    k4 = np.empty(N_S)
-    t = np.empty(N_S)
+    p = params_tuple(prm)
+    x = _state_tuple(s)  # the state as a tuple along the substeps (see params_tuple)
     if not jac:  # the state alone (the filters call this most): no tangent arrays
         for k in range(n_sub):
             t0 = k * h
             qa = command_at(qc0, qc1, t0, t_knee)
             qm = command_at(qc0, qc1, t0 + 0.5 * h, t_knee)
             qb = command_at(qc0, qc1, t0 + h, t_knee)
-            _rk4(s, qa, qm, qb, f_in, h, prm, k1, k2, k3, k4, t)
+            x = _rk4(x, qa, qm, qb, f_in, h, p)
+        for i in range(N_S):
+            s[i] = x[i]
         return
     A = np.empty((N_S, N_S))
     G = np.empty(N_S)
@@ -263,6 +290,7 @@ def propagate(s, qc0, qc1, f_in, dt, t_knee, n_sub, prm, jac, q_valve, q_state, 
     W = np.empty((N_S, N_S))
     W2 = np.empty((N_S, N_S))
     g0 = np.empty(N_S)
+    gk = np.empty(N_S)
     for i in range(N_S):
         Gam[i] = 0.0
         for j in range(N_S):
@@ -276,30 +304,30 @@ def propagate(s, qc0, qc1, f_in, dt, t_knee, n_sub, prm, jac, q_valve, q_state, 
         for i in range(N_S):  # the substep's tangent starts at [I | 0]
             for j in range(N_S + 1):
                 M[i, j] = 1.0 if i == j else 0.0
-        _stage_tangent(s, qa, f_in, prm, M, A, G, K1)
+        _stage_tangent(x, qa, f_in, p, M, A, G, K1)
         for i in range(N_S):
             g0[i] = G[i]
-        deriv(s, qa, f_in, prm, k1)
+        k1 = _deriv(x, qa, f_in, p)
+        t = _axpy(x, 0.5 * h, k1)
         for i in range(N_S):
-            t[i] = s[i] + 0.5 * h * k1[i]
             for j in range(N_S + 1):
                 Mt[i, j] = M[i, j] + 0.5 * h * K1[i, j]
-        _stage_tangent(t, qm, f_in, prm, Mt, A, G, K2)
-        deriv(t, qm, f_in, prm, k2)
+        _stage_tangent(t, qm, f_in, p, Mt, A, G, K2)
+        k2 = _deriv(t, qm, f_in, p)
+        t = _axpy(x, 0.5 * h, k2)
         for i in range(N_S):
-            t[i] = s[i] + 0.5 * h * k2[i]
             for j in range(N_S + 1):
                 Mt[i, j] = M[i, j] + 0.5 * h * K2[i, j]
-        _stage_tangent(t, qm, f_in, prm, Mt, A, G, K3)
-        deriv(t, qm, f_in, prm, k3)
+        _stage_tangent(t, qm, f_in, p, Mt, A, G, K3)
+        k3 = _deriv(t, qm, f_in, p)
+        t = _axpy(x, h, k3)
         for i in range(N_S):
-            t[i] = s[i] + h * k3[i]
             for j in range(N_S + 1):
                 Mt[i, j] = M[i, j] + h * K3[i, j]
-        _stage_tangent(t, qb, f_in, prm, Mt, A, G, K4)
-        deriv(t, qb, f_in, prm, k4)
+        _stage_tangent(t, qb, f_in, p, Mt, A, G, K4)
+        k4 = _deriv(t, qb, f_in, p)
+        x = _axpy(x, h / 6.0, _rk4_sum(k1, k2, k3, k4))
         for i in range(N_S):
-            s[i] = s[i] + h / 6.0 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
             for j in range(N_S + 1):
                 M[i, j] = M[i, j] + h / 6.0 * (K1[i, j] + 2.0 * (K2[i, j] + K3[i, j])
                                                + K4[i, j])
@@ -308,14 +336,14 @@ def propagate(s, qc0, qc1, f_in, dt, t_knee, n_sub, prm, jac, q_valve, q_state, 
             acc = M[i, N_S]
             for j in range(N_S):
                 acc += M[i, j] * Gam[j]
-            k1[i] = acc
+            gk[i] = acc
             for j in range(N_S):
                 a2 = 0.0
                 for m in range(N_S):
                     a2 += M[i, m] * Phi[m, j]
                 W[i, j] = a2
         for i in range(N_S):
-            Gam[i] = k1[i]
+            Gam[i] = gk[i]
             for j in range(N_S):
                 Phi[i, j] = W[i, j]
         for i in range(N_S):
@@ -335,6 +363,7 @@ def propagate(s, qc0, qc1, f_in, dt, t_knee, n_sub, prm, jac, q_valve, q_state, 
             for j in range(N_S):
                 Qd[i, j] = W2[i, j]
     for i in range(N_S):
+        s[i] = x[i]
         for j in range(i + 1, N_S):
             v = 0.5 * (Qd[i, j] + Qd[j, i])
             Qd[i, j] = v

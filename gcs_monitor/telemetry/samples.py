@@ -157,8 +157,10 @@ def imu_chord(t_us: Sequence[int], acc_ned_mps2: np.ndarray, t0_us: int,
     a = np.asarray(acc_ned_mps2, dtype=np.float64)
     steps = 0.5 * (a[1:] + a[:-1]) * np.diff(ts)[:, None]  # trapezoid
     cum = np.vstack((np.zeros((1, 3)), np.cumsum(steps, axis=0)))
-    c0 = np.array([np.interp(t0_us * 1e-6, ts, cum[:, i]) for i in range(3)])
-    c1 = np.array([np.interp(t1_us * 1e-6, ts, cum[:, i]) for i in range(3)])
+    # both ends per axis in one np.interp call (each point is interpolated on its own)
+    ends = np.array([np.interp((t0_us * 1e-6, t1_us * 1e-6), ts, cum[:, i]) for i in range(3)])
+    c0 = ends[:, 0]
+    c1 = ends[:, 1]
     mean = (c1 - c0) / ((t1_us - t0_us) * 1e-6)
     dv = tuple((float(r[0]), float(r[1]), float(r[2])) for r in (cum - c0).tolist())
     return ImuChord(t0_us, t1_us, tuple(int(t) for t in t_us), dv,

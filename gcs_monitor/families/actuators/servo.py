@@ -570,8 +570,9 @@ class ServoTier:
 
     # -- update ----------------------------------------------------------------------------------
     def update(self, frame: Frame, verdict: Verdict) -> list[Estimate]:
-        """The filters' estimates of this Frame's SURF sample (none without one)."""
-        if not verdict.status.sample or self._est_t_us is None:
+        """The filters' estimates of this Frame's SURF sample (none without one, and none when
+        nobody reads them: only sinks and callbacks do, ``FamilyContext.statuses``)."""
+        if not verdict.status.sample or self._est_t_us is None or not self.ctx.statuses:
             return []
         return self._make_estimates(self._est_t_us, self._row_lists)
 
