@@ -26,6 +26,8 @@ NAMES = {
     "real_flights", "gps_rate_accuracy",
     "lu2017", "lu2017_calibration", "lu2017_campaign",  # added with the actuator family
     "actuators_sim", "actuators_alfa", "triplex_actuators",
+    # the campaign's false alarms examined: the defaults' raises, the yaw-rate altitude bands
+    "wan2018_campaign_defaults", "chen2020_altitudes",
 }
 
 
