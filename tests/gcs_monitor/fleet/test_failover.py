@@ -38,6 +38,11 @@ def test_failover_in_process(packets, tmp_path) -> None:
         wb = fleet.worker("wB", shard=(1, 2), journal=tmp_path / "wB.jsonl")
         fleet.feed(packets, speed=2.0, until_us=KILL_AT_US)
         assert sorted(wa.owned) == [2, 4] and sorted(wb.owned) == [1, 3]
+        # wA has judged what it was fed before it dies (on a loaded machine its thread lags
+        # the 2x feed: vehicle 2's onset at 4 s must be wA's, whatever the load)
+        assert wait_for(lambda: all(
+            wa.owned[s].monitor.vehicles[s].last_t_us >= fleet.fed_until_us - 200_000
+            for s in (2, 4)), 30)
         t_kill = time.monotonic()
         fleet.crash("wA")
         assert wait_for(lambda: sorted(wb.owned) == [1, 2, 3, 4], TAKEOVER_BOUND_S, 0.02)
