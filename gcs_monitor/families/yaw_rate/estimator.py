@@ -176,9 +176,10 @@ class YawRateEstimator:
                 return Estimate.unavailable(
                     self.name, t, f"no altitude (baro or GPS): the {self.label!r} design's "
                     "models hold per altitude band")
+            side = "below" if inp.alt_m < lo_m else "above"
             return Estimate.unavailable(
-                self.name, t, f"altitude {inp.alt_m:.0f} m outside the {self.label!r} "
-                f"design's {lo_m:.0f}-{hi_m:.0f} m (its models hold only there)")
+                self.name, t, f"altitude {side} the {self.label!r} design's bands, "
+                f"{lo_m:.0f}-{hi_m:.0f} m (its models hold only there)")
         if band != self._band:
             self._band = band
             self.mats = self._mats[band]
@@ -190,9 +191,12 @@ class YawRateEstimator:
         lo, hi = self.eas_range
         if not lo <= inp.eas_mps <= hi:
             self.reset()
+            # no value in the reason: coverage names the reason with the most uncovered time
+            # in its window, and one reason per m/s would split it
+            side = "below" if inp.eas_mps < lo else "above"
             return Estimate.unavailable(
-                self.name, t, f"EAS {inp.eas_mps:.0f} m/s outside the {self.label!r} "
-                f"design's {lo:.0f}-{hi:.0f} m/s (its model holds only there)")
+                self.name, t, f"EAS {side} the {self.label!r} design's {lo:.0f}-{hi:.0f} m/s "
+                "(its model holds only there)")
         reinit = ""
         imu = frame.primary_imu
         inst = imu.instance if imu is not None else 0
