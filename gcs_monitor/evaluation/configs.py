@@ -181,6 +181,17 @@ def _with_sets(cfg: MonitorConfig, **changes: Any) -> MonitorConfig:
         cas=dataclasses.replace(fdi.cas, **changes)))
 
 
+def family_alone(cfg: MonitorConfig, family: str) -> MonitorConfig:
+    """``cfg`` with one family's estimators alone (a campaign of its alarms runs without the
+    others' cost): every other family off, the air-data family without its estimator (its
+    sets are still voted)."""
+    for name in cfg.families:
+        if name != family:
+            cfg = (cfg.with_family(name, estimator="none") if name == "airdata"
+                   else cfg.with_family(name, enabled=False))
+    return cfg
+
+
 def without_actuators(cfg: MonitorConfig) -> MonitorConfig:
     """``cfg`` with the actuator family off: the sensor experiments judge their own families
     (its experiments are in :mod:`gcs_monitor.evaluation.papers.actuators`)."""

@@ -37,6 +37,7 @@ from gcs_monitor.config import MonitorConfig
 from gcs_monitor.core.atmosphere import tas_from_cas
 from gcs_monitor.core.types import ChannelId
 from gcs_monitor.core.units import RAD2DEG
+from gcs_monitor.evaluation.configs import family_alone
 from gcs_monitor.evaluation.papers.chen2020_design import (
     ENVELOPES,
     closed_loop_bounds,
@@ -502,10 +503,7 @@ def _altitude_job(job: tuple[str, float, str, str]) -> tuple[str, float, str, fl
     tas = ALTITUDE_EAS_MPS / eas_from_tas(1.0, alt_m)
     sc = dataclasses.replace(sc, name=f"{manoeuvre}_{alt_m:.0f}m", duration_s=120.0,
                              initial=dataclasses.replace(sc.initial, alt_m=alt_m, tas_mps=tas))
-    cfg = monitor_config(design=design)
-    for fam in ("imu", "actuators"):
-        cfg = cfg.with_family(fam, enabled=False)
-    r = open_loop_run(sc, cfg.with_family("airdata", estimator="none"))
+    r = open_loop_run(sc, family_alone(monitor_config(design=design), "yaw_rate"))
     return manoeuvre, alt_m, label, r.j_max, len(observer_alarms(r.events,
                                                                  ChannelId("gyro", 0, "r")))
 

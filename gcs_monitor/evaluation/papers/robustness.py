@@ -28,7 +28,7 @@ from gcs_monitor.config import MonitorConfig
 from gcs_monitor.core.types import ChannelId
 from gcs_monitor.evaluation import scenarios
 from gcs_monitor.evaluation.campaign import run_records
-from gcs_monitor.evaluation.configs import with_declared_weather
+from gcs_monitor.evaluation.configs import family_alone, with_declared_weather
 from gcs_monitor.evaluation.records import METHOD_MEDIAN, METHOD_MONITOR, RunRecord
 from gcs_monitor.evaluation.report import METHOD_LABEL, fmt_fixed, md_table, write_csv
 from gcs_monitor.evaluation.runner import run_parallel
@@ -467,19 +467,9 @@ def triplex_weather(out: Path, jobs: int = 2, quick: bool = False) -> str:
                              f"{' --quick' if quick else ''}")
 
 
-def actuators_only(cfg: MonitorConfig) -> MonitorConfig:
-    """``cfg`` with the actuator family alone (its alarms do not depend on the other
-    families: a campaign of its false alarms runs without their cost)."""
-    for name in cfg.families:
-        if name != "actuators":
-            cfg = (cfg.with_family(name, estimator="none") if name == "airdata"
-                   else cfg.with_family(name, enabled=False))
-    return cfg
-
-
 def _actuator_job(job: tuple[int, Scenario]) -> tuple[int, str, str, list[AlarmEvent]]:
     index, sc = job
-    mon = Monitor(actuators_only(MonitorConfig()))
+    mon = Monitor(family_alone(MonitorConfig(), "actuators"))
     feed_packets(mon, (pkt for _, _, pkt in iter_run(sc)))
     raised = [e for e in mon.events if e.kind is AlarmKind.ACTUATOR_FAULT
               and e.state is AlarmState.RAISED]
