@@ -127,15 +127,17 @@ class YawRateEstimator:
         self._tau = cfg.observer.nu_filter_s
         self._channels: dict[int, ChannelId] = {}
         self._band = 0
+        # one band without altitude limits (a design identified from flights) holds anywhere,
+        # even without an altitude
+        self._everywhere = len(bands) == 1 and bands[0].alt_range_m == (-math.inf, math.inf)
         self.reset()
 
     def _band_at(self, alt_m: float) -> int:
         """The band of this altitude (the current one while within its hysteresis), -1 if
         none holds there; a design of one unbounded band holds everywhere."""
-        bands = self.bands
-        if len(bands) == 1 and not math.isfinite(bands[0].alt_range_m[0]) \
-                and not math.isfinite(bands[0].alt_range_m[1]):
+        if self._everywhere:
             return 0
+        bands = self.bands
         if not math.isfinite(alt_m):
             return -1
         lo, hi = bands[self._band].alt_range_m
