@@ -75,6 +75,54 @@ class Family(Protocol):
     def update(self, frame: Frame, verdict: Verdict) -> list[Estimate]: ...
 
 
+AIRSPEED_CAS = "airdata.cas_mps"
+"""Blackboard key: the air-data family's airspeed (CAS, m/s) for the families after it."""
+
+
+@dataclass(frozen=True, slots=True)
+class SharedValue:
+    """One value a family published for the families after it: what, when, and from what
+    (``"fused"``: the vote of the healthy instances, Wan2018 eq. 19; ``"virtual"``: the
+    estimator's output when no instance is healthy, Wan2018 Table I)."""
+
+    value: float
+    t_us: int
+    source: str
+
+
+class Blackboard:
+    """What the families of one vehicle tell each other within a Frame.
+
+    A family that judges a redundant set knows better than a family that merely reads it which
+    instances to trust: the yaw-rate observer schedules on airspeed, and when two pitots of
+    three are faulty their median is wrong while the air-data family's fused value (or its
+    virtual sensor) is not. The pipeline runs the families in registry order, so a value put
+    here on a Frame is read by the families after its writer on the same Frame. A reader
+    falls back to its own reading of the raw instances when nothing (fresh) is here: the
+    writer is disabled, or has not judged yet.
+    """
+
+    __slots__ = ("_values",)
+
+    def __init__(self) -> None:
+        self._values: dict[str, SharedValue] = {}
+
+    def put(self, key: str, value: float, t_us: int, source: str) -> None:
+        self._values[key] = SharedValue(value, t_us, source)
+
+    def withdraw(self, key: str, t_us: int, source: str) -> None:
+        """The writer judged and has no value (every instance faulty, no estimator): readers
+        must not fall back to the raw instances."""
+        self._values[key] = SharedValue(float("nan"), t_us, source)
+
+    def get(self, key: str, t_us: int, max_age_s: float) -> SharedValue | None:
+        """The latest value of ``key`` if it is at most ``max_age_s`` old at ``t_us``."""
+        v = self._values.get(key)
+        if v is None or (t_us - v.t_us) > max_age_s * 1e6:
+            return None
+        return v
+
+
 @dataclass(frozen=True, slots=True)
 class FamilyContext:
     """What a family needs to know about where it runs.
@@ -85,6 +133,8 @@ class FamilyContext:
         callbacks read (off when no sink or callback reads them; alarms are the same either way)
     alarm : alarm update policy (``[alarms]``)
     classifier : the classifier's shape tests (``[classifier]``)
+    shared : the vehicle's blackboard, one object for all its families (values one family
+        gives the families after it within a Frame)
     """
 
     vehicle: int
@@ -92,6 +142,7 @@ class FamilyContext:
     statuses: bool = True
     alarm: AlarmParams = field(default_factory=AlarmParams)
     classifier: ClassifierShape = field(default_factory=ClassifierShape)
+    shared: Blackboard = field(default_factory=Blackboard, compare=False)
 
 
 @dataclass(frozen=True, slots=True)

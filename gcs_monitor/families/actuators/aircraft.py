@@ -73,7 +73,7 @@ from gcs_monitor.families.actuators.config import (
     AircraftTierConfig,
     ResidualCheckConfig,
 )
-from gcs_monitor.families.base import FamilyContext, Verdict
+from gcs_monitor.families.base import AIRSPEED_CAS, FamilyContext, Verdict
 from gcs_monitor.fdi.alarms import AlarmStateMachine
 from gcs_monitor.fdi.config import samples_in
 from gcs_monitor.fdi.confirmation import Confirmation, ConfirmationParams
@@ -330,13 +330,19 @@ class AircraftTier:
         e = tuple(frame.euler_rad.tolist()) if frame.euler_rad is not None else None
         nan = math.nan
         hud = frame.hud
-        # the airspeed: the median of the pitots (one faulty pitot of three cannot move it;
-        # the autopilot's VFR_HUD airspeed is one sensor, or its own fusion of them), else
-        # VFR_HUD's, else the ground speed
-        pitots = [c for c in frame.cas_mps.tolist() if c > 0.0]  # False for NaN
-        v = statistics.median(pitots) if pitots else nan
-        if v != v and hud is not None and hud.airspeed_mps > 0.0:
-            v = hud.airspeed_mps
+        # the airspeed: the air-data family's (the fusion of the pitots its vote keeps, or its
+        # virtual CAS), else the median of the pitots (one faulty pitot of three cannot move
+        # it; the autopilot's VFR_HUD airspeed is one sensor, or its own fusion of them), else
+        # VFR_HUD's, else the ground speed. When the air-data family trusts no pitot, VFR_HUD's
+        # airspeed (made from the same pitots) is skipped too.
+        shared = self.ctx.shared.get(AIRSPEED_CAS, frame.t_us, self.ctx.stale_after_s)
+        if shared is not None:
+            v = shared.value
+        else:
+            pitots = [c for c in frame.cas_mps.tolist() if c > 0.0]  # False for NaN
+            v = statistics.median(pitots) if pitots else nan
+            if v != v and hud is not None and hud.airspeed_mps > 0.0:
+                v = hud.airspeed_mps
         if v != v and frame.gps_vel_ned_mps is not None:
             v = float(np.linalg.norm(frame.gps_vel_ned_mps))
         out = self.cfg.outputs

@@ -25,9 +25,9 @@ from typing import Any
 import numpy as np
 
 from gcs_monitor.families.airdata.config import AirDataFamilyConfig
-from gcs_monitor.families.airdata.estimator import AirDataEstimator
+from gcs_monitor.families.airdata.estimator import VIRTUAL_CAS, AirDataEstimator
 from gcs_monitor.families.airdata.weather import WeatherEstimator, wind_ned
-from gcs_monitor.families.base import FamilyContext, Verdict
+from gcs_monitor.families.base import AIRSPEED_CAS, FamilyContext, Verdict
 from gcs_monitor.fdi.config import scheduled_threshold, set_params
 from gcs_monitor.fdi.fusion import MheMeasurementFusion
 from gcs_monitor.fdi.monitor import RedundantSetMonitor
@@ -187,7 +187,28 @@ class AirDataFamily:
         if self.weather is not None and verdict.sets:
             weather = self._estimate_weather(frame, verdict)
         out = self._step(frame, verdict)
+        if verdict.sets:
+            self._share(frame.t_us, verdict)
         return out + [weather] if weather is not None else out
+
+    def _share(self, t_us: int, verdict: Verdict) -> None:
+        """The airspeed the families after this one schedule on (the yaw-rate observer's
+        ``V_eas``, the aircraft tier's dynamic pressure): the eq. 19 fusion of the healthy CAS
+        instances; with none healthy, the estimator's virtual CAS (Wan2018 Table I: the MHE
+        runs on without the lost set's row of C); else no airspeed at all, which a reader must
+        not replace with the raw instances it was just told are faulty."""
+        shared = self.ctx.shared
+        cas = verdict.fused.get("cas")
+        if cas is not None and math.isfinite(cas):
+            shared.put(AIRSPEED_CAS, cas, t_us, "fused")
+            return
+        last = self._last
+        v = (last.virtual.get(VIRTUAL_CAS) if last is not None and last.available
+             and last.numerics_ok and last.t_us == t_us else None)
+        if v is not None and math.isfinite(v):
+            shared.put(AIRSPEED_CAS, v, t_us, "virtual")
+        else:
+            shared.withdraw(AIRSPEED_CAS, t_us, "no healthy CAS instance")
 
     def _step(self, frame: Frame, verdict: Verdict) -> list[Estimate]:
         if self.estimator is None:

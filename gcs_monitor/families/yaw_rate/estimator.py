@@ -3,8 +3,10 @@
 Per observer step (``[yaw_rate.observer] step_s``, Chen2020's 50 Hz), from the Frame:
 ``y_p = [phi, beta, p, r]`` (ATTITUDE roll, AOA_SSA sideslip, the primary IMU's roll and yaw
 rates), ``u_p = [delta_a, delta_r]`` (surface positions, else commands, of DEBUG_FLOAT_ARRAY
-``SURF``), and ``rho = [V_eas, V_eas^2]`` with ``V_eas`` from the median valid CAS instance at
-the barometric altitude (Chen2020 eq. 59). The observer (:mod:`gcs_monitor.filters.lpv_smo`)
+``SURF``), and ``rho = [V_eas, V_eas^2]`` with ``V_eas`` from the air-data family's airspeed
+(the fusion of the CAS instances its vote keeps, or its virtual CAS when none is healthy; the
+blackboard of :mod:`gcs_monitor.families.base`), else the median valid CAS instance, at the
+barometric altitude (Chen2020 eq. 59). The observer (:mod:`gcs_monitor.filters.lpv_smo`)
 gives the fault estimate of the monitored gyro axis, low-passed to the equivalent output
 injection, and the corrected (virtual) gyro ``y - f_hat`` (Chen2020 eq. 24).
 
@@ -24,6 +26,7 @@ import numpy as np
 
 from gcs_monitor.core.atmosphere import tas_from_cas
 from gcs_monitor.core.types import ChannelId
+from gcs_monitor.families.base import AIRSPEED_CAS, Blackboard, SharedValue
 from gcs_monitor.families.yaw_rate.config import YawRateFamilyConfig
 from gcs_monitor.families.yaw_rate.design import ObserverDesign, load_bands
 from gcs_monitor.fdi.records import Estimate
@@ -58,8 +61,11 @@ class LateralInputs:
     alt_m: float = math.nan
 
 
-def lateral_inputs(frame: Frame, stale_s: float) -> LateralInputs:
-    """The observer's measurements of a Frame, or the first missing input."""
+def lateral_inputs(frame: Frame, stale_s: float,
+                   airspeed: SharedValue | None = None) -> LateralInputs:
+    """The observer's measurements of a Frame, or the first missing input. ``airspeed`` is the
+    air-data family's CAS when it has judged recently (NaN: it trusts no instance), else the
+    median of the fresh CAS instances is used."""
     nan = math.nan
     imu = frame.primary_imu
     if imu is None:
@@ -72,13 +78,19 @@ def lateral_inputs(frame: Frame, stale_s: float) -> LateralInputs:
     surf = frame.surf_pos_rad if frame.surf_pos_rad is not None else frame.surf_cmd_rad
     if surf is None:
         return LateralInputs(None, None, nan, "no surface deflections (SURF)")
-    cas = [c for c, a in zip(frame.cas_mps.tolist(), frame.cas_age_s.tolist(), strict=False)
-           if c == c and a <= stale_s]
-    if not cas:
-        return LateralInputs(None, None, nan, "no airspeed (AIRSPEED)")
-    cas.sort()
-    mid = len(cas) // 2
-    v_cas = cas[mid] if len(cas) % 2 else 0.5 * (cas[mid - 1] + cas[mid])
+    if airspeed is not None:
+        v_cas = airspeed.value
+        if v_cas != v_cas:
+            return LateralInputs(None, None, nan, "no trusted airspeed (air-data family: "
+                                                  f"{airspeed.source})")
+    else:
+        cas = [c for c, a in zip(frame.cas_mps.tolist(), frame.cas_age_s.tolist(),
+                                 strict=False) if c == c and a <= stale_s]
+        if not cas:
+            return LateralInputs(None, None, nan, "no airspeed (AIRSPEED)")
+        cas.sort()
+        mid = len(cas) // 2
+        v_cas = cas[mid] if len(cas) % 2 else 0.5 * (cas[mid - 1] + cas[mid])
     alt = frame.baro_alt_m if math.isfinite(frame.baro_alt_m) else frame.alt_msl_m
     eas = eas_from_tas(tas_from_cas(v_cas, alt), alt) if math.isfinite(alt) else v_cas
     w = imu.omega_frd_radps
@@ -94,7 +106,7 @@ class YawRateEstimator:
 
     def __init__(self, cfg: YawRateFamilyConfig, *,
                  design: ObserverDesign | list[ObserverDesign] | None = None,
-                 stale_s: float = 0.5) -> None:
+                 stale_s: float = 0.5, shared: Blackboard | None = None) -> None:
         self.cfg = cfg
         bands = (load_bands(cfg.design) if design is None
                  else [design] if isinstance(design, ObserverDesign) else list(design))
@@ -121,6 +133,7 @@ class YawRateEstimator:
         # the model belongs to
         self.label = Path(cfg.design).name if cfg.design.endswith(".json") else cfg.design
         self.stale_s = stale_s
+        self.shared = shared  # the air-data family's airspeed, when it runs
         self._step_us = round(cfg.observer.step_s * US_PER_S)
         self._gap_us = round(cfg.max_gap_s * US_PER_S)
         self._reanchor_us = round(cfg.reanchor_s * US_PER_S)
@@ -167,7 +180,8 @@ class YawRateEstimator:
     def step(self, frame: Frame) -> Estimate:
         """One observer step on this Frame (the caller checks :meth:`due`)."""
         t = frame.t_us
-        inp = lateral_inputs(frame, self.stale_s)
+        inp = lateral_inputs(frame, self.stale_s, None if self.shared is None else
+                             self.shared.get(AIRSPEED_CAS, frame.t_us, self.stale_s))
         if inp.y_p is None or inp.u is None:  # the next sample re-anchors over the gap
             return Estimate.unavailable(self.name, t, inp.reason)
         band = self._band_at(inp.alt_m)

@@ -43,7 +43,7 @@ class YawRateFamily:
         self.cfg = cfg
         self.ctx = ctx
         self.estimator = estimator if estimator is not None else YawRateEstimator(
-            cfg, stale_s=ctx.stale_after_s)
+            cfg, stale_s=ctx.stale_after_s, shared=ctx.shared)
         self._frames = SamplePeriod()  # Frame period (rate range)
         self._steps = SamplePeriod()  # observer step period (FDI windows)
         self._warmup_us = round(cfg.warmup_s * US_PER_S)
