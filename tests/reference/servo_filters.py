@@ -58,6 +58,8 @@ class ReferenceServoFilters:
         self.q_com = self.rod_command(cmd_rad)
         self.q_prev = math.nan
         self.d2: list[float] = []  # |second differences| of the command seen
+        self.q_max = 0.0  # the largest |rod command| seen since the start
+        self.j_hold = 0.0  # the spread of the last sample not held at the limit
         self.x_early, self.x_late = x0.copy(), x0.copy()
         if not hasattr(self, "lead_j"):  # the identified command timing survives a restart
             self.lead_j = [0.0] * len(LEAD_FRACTIONS)
@@ -117,6 +119,12 @@ class ReferenceServoFilters:
             kept = seen[:-2] if len(seen) > 4 else seen
             jit = 0.5 * math.sqrt(sum(x * x for x in kept) / len(seen))
             self.d2.append(d2)
+            # a command held at its largest deflection so far (clipped): not below the
+            # spread it had when it got there
+            if qc1 == qc0 == self.q_prev and abs(qc1) >= self.q_max > 0.0:
+                jit = max(jit, self.j_hold)
+            else:
+                self.j_hold = jit
         s = self.iots
         f0 = float(s.f[0])
         ident = (self._identify(s.x, qc0, qc1, y_rod, dt, n_sub)
@@ -157,6 +165,7 @@ class ReferenceServoFilters:
         env = self.x_early[0] - self.x_late[0]
         self.iots, self.x_nom, self.P_nom = new, rts.x, rts.P
         self.q_prev, self.q_com = qc0, qc1
+        self.q_max = max(self.q_max, abs(qc1))
         if ident is not None:
             self.lead_j, self.lead_x, self.lead_i, self.lead_k = ident
         x = new.x

@@ -64,7 +64,9 @@ S_LI = S_LX + N_LEAD * N
 S_LK = S_LI + 1
 S_DTREF = S_LK + 1
 S_LFREEZE = S_DTREF + 1  # set by the caller while the surface is in alarm: nothing learnt
-N_STATE = S_LFREEZE + 1
+S_QMAX = S_LFREEZE + 1  # the largest |rod command| seen since the start
+S_JHOLD = S_QMAX + 1  # the unseen-command spread of the last sample not held at the limit
+N_STATE = S_JHOLD + 1
 # configuration vector
 (C_GAIN, C_STROKE, C_ROD_SIG, C_SURF_SIG, C_SUBSTEP, C_QVALVE, C_QS0, C_QS1, C_QS2,
  C_FRATE, C_GATE, C_LEAD, C_STEP_NOISE, C_JIT_NOISE, C_JIT_WINDOW, C_BLEND, C_LEAD_TAU,
@@ -134,10 +136,19 @@ def unseen_spread(st, qc0, qc1, dt, cfg):
     seen have sigma ``sqrt(6)`` sigma and an unseen sample lies ``sqrt(1.5)`` sigma off the line
     through its neighbours; the trim drops the pair of values a command step leaves (the step
     noise covers those), a one-sample spike keeps its third.
+
+    A command held at its limit: three seen samples exactly equal at the largest deflection
+    commanded so far are an autopilot's clipped demand (its limit is not in the telemetry),
+    and the unseen samples between them leave the limit whenever the demand comes back
+    inside it (a rudder banging between its limits in turbulence: the rod leaves the stop
+    between two SURF samples). Their zero second differences say nothing of those samples:
+    while the command is held, the spread does not fall below its value on the last sample
+    before (``S_JHOLD``, the fourth value returned). A command that was quiet when it got
+    there (a 3-2-1-1 plateau) keeps the spread it had, none.
     """
     qprev = st[S_QPREV]
     if cfg[C_JIT_NOISE] == 0.0 or qprev != qprev:
-        return 0.0, -1, -1
+        return 0.0, -1, -1, 0.0
     jn = int(st[S_JN])
     jidx = int(st[S_JIDX])
     n = max(3, min(JIT_MAX, int(round(cfg[C_JIT_WINDOW] / dt))))
@@ -152,7 +163,14 @@ def unseen_spread(st, qc0, qc1, dt, cfg):
     acc = 0.0
     for i in range(keep):
         acc += v[i] * v[i]
-    return SPREAD_PER_RMS * math.sqrt(acc / m), min(jn + 1, JIT_MAX), (jidx + 1) % JIT_MAX
+    spread = SPREAD_PER_RMS * math.sqrt(acc / m)
+    if qc1 == qc0 and qc0 == qprev and abs(qc1) >= st[S_QMAX] > 0.0:  # held at the limit
+        hold = st[S_JHOLD]
+        if hold > spread:
+            spread = hold
+    else:
+        hold = spread
+    return spread, min(jn + 1, JIT_MAX), (jidx + 1) % JIT_MAX, hold
 
 
 @jit
@@ -272,7 +290,7 @@ def surface_step(st, dt, cmd_rad, y_rod, y_surf_rad, prm, cfg, out):
     qs[0] = cfg[C_QS0]
     qs[1] = cfg[C_QS1]
     qs[2] = cfg[C_QS2]
-    jitv, jn, jidx = unseen_spread(st, qc0, qc1, dt, cfg)
+    jitv, jn, jidx, jhold = unseen_spread(st, qc0, qc1, dt, cfg)
     # IOTSEKF over [x, r]
     x_bar = st[S_XBAR:S_XBAR + N].copy()
     P_bar = st[S_PBAR:S_PBAR + N * N].copy().reshape((N, N))
@@ -391,6 +409,9 @@ def surface_step(st, dt, cmd_rad, y_rod, y_surf_rad, prm, cfg, out):
         st[S_JIDX] = jidx
     st[S_QPREV] = qc0
     st[S_QCOM] = qc1
+    st[S_JHOLD] = jhold
+    if abs(qc1) > st[S_QMAX]:
+        st[S_QMAX] = abs(qc1)
     for i in range(N):
         st[S_XE + i] = xe[i]
         st[S_XL + i] = xl[i]

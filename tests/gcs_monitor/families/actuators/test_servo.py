@@ -222,6 +222,43 @@ def test_kernel_equals_reference(case: str) -> None:
         np.testing.assert_allclose(out[O_X1:O_X1 + 3], r["x"], rtol=1e-9, atol=1e-13)
 
 
+def _spreads(cmds: list[float], dt: float = 0.05) -> tuple[list[float], list[float]]:
+    """O_JIT of the kernel and ``jit`` of the reference on a command sequence (rod at rest)."""
+    a = ServoFilters(ServoParams(), ServoLoopParams(), SENS, ServoFilterConfig())
+    b = ReferenceServoFilters(ServoParams(), ServoLoopParams(), SENS, ServoFilterConfig())
+    a.start(cmds[0], 0.0)
+    b.start(cmds[0], 0.0)
+    out = np.zeros(N_OUT)
+    ka, kb = [], []
+    for c in cmds[1:]:
+        assert a.step(dt, c, c / GEO.rod_gain_radpm, c, out)
+        r = b.step(dt, c, c / GEO.rod_gain_radpm, c)
+        assert r is not None
+        ka.append(float(out[O_JIT]))
+        kb.append(r["jit"])
+    return ka, kb
+
+
+def test_a_command_clipped_at_its_limit_keeps_its_unseen_spread() -> None:
+    """A jittery command (0.1 rad of white jitter about 0.2 rad, clipped) that runs into its limit,
+    0.4 rad, and sits there for 1 s: the samples at the limit are a clipped demand, their zero
+    second differences say nothing of the unseen ones, and the spread holds its value from
+    before (it used to fall to 0 within the window: run 53 of the Wan2018 campaign, a false
+    rudder output alarm when the rod left the stop between two SURF samples). A quiet plateau at
+    the extreme (a 3-2-1-1) keeps its zero spread; kernel and reference agree on both."""
+    rng = np.random.default_rng(4)
+    jitter = [min(0.2 + 0.1 * float(v), 0.4) for v in rng.normal(size=30)]  # the autopilot clips
+    ka, kb = _spreads(jitter + [0.4] * 20)
+    np.testing.assert_allclose(ka, kb, rtol=1e-12, atol=1e-15)
+    at_entry = ka[len(jitter)]  # the last sample with a second difference off the limit
+    assert at_entry > 0.0
+    assert min(ka[len(jitter) + 1:]) >= at_entry  # held at the limit
+    quiet = [0.0] * 20 + [0.4] * 20 + [-0.4] * 20 + [0.4] * 20
+    ka, kb = _spreads(quiet)
+    np.testing.assert_allclose(ka, kb, rtol=1e-12, atol=1e-15)
+    assert max(ka[25:40]) == 0.0 and max(ka[65:80]) == 0.0  # the plateaus, after each step
+
+
 def test_bank_equals_one_filter_per_surface() -> None:
     """The bank's one kernel call for all surfaces (``surfaces_step``, the tier's path) gives
     bit for bit the states and output rows of one :class:`ServoFilters` per surface, a fault
