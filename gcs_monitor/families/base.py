@@ -82,8 +82,8 @@ AIRSPEED_CAS = "airdata.cas_mps"
 @dataclass(frozen=True, slots=True)
 class SharedValue:
     """One value a family published for the families after it: what, when, and from what
-    (``"fused"``: the vote of the healthy instances, Wan2018 eq. 19; ``"virtual"``: the
-    estimator's output when no instance is healthy, Wan2018 Table I)."""
+    (``"fused"``: the vote of the healthy instances, Wan2018 eq. 19; a withdrawal, NaN, says
+    why there is none)."""
 
     value: float
     t_us: int
@@ -95,10 +95,11 @@ class Blackboard:
 
     A family that judges a redundant set knows better than a family that merely reads it which
     instances to trust: the yaw-rate observer schedules on airspeed, and when two pitots of
-    three are faulty their median is wrong while the air-data family's fused value (or its
-    virtual sensor) is not. The pipeline runs the families in registry order, so a value put
-    here on a Frame is read by the families after its writer on the same Frame. A reader
-    falls back to its own reading of the raw instances when nothing (fresh) is here: the
+    three are faulty their median is wrong while the air-data family's fused value is not;
+    when all are faulty that family says so instead of passing a wrong airspeed on. The
+    pipeline runs the families in registry order, so a value put here on a Frame is read by
+    the families after its writer on the same Frame. A reader falls back to its own reading of
+    the raw instances when nothing (fresh) is here: the
     writer is disabled, or has not judged yet.
     """
 

@@ -4,8 +4,8 @@ Per observer step (``[yaw_rate.observer] step_s``, Chen2020's 50 Hz), from the F
 ``y_p = [phi, beta, p, r]`` (ATTITUDE roll, AOA_SSA sideslip, the primary IMU's roll and yaw
 rates), ``u_p = [delta_a, delta_r]`` (surface positions, else commands, of DEBUG_FLOAT_ARRAY
 ``SURF``), and ``rho = [V_eas, V_eas^2]`` with ``V_eas`` from the air-data family's airspeed
-(the fusion of the CAS instances its vote keeps, or its virtual CAS when none is healthy; the
-blackboard of :mod:`gcs_monitor.families.base`), else the median valid CAS instance, at the
+(the fusion of the CAS instances its vote keeps; none when it trusts none; the blackboard of
+:mod:`gcs_monitor.families.base`), else the median valid CAS instance, at the
 barometric altitude (Chen2020 eq. 59). The observer (:mod:`gcs_monitor.filters.lpv_smo`)
 gives the fault estimate of the monitored gyro axis, low-passed to the equivalent output
 injection, and the corrected (virtual) gyro ``y - f_hat`` (Chen2020 eq. 24).
