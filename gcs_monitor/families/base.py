@@ -77,13 +77,17 @@ class Family(Protocol):
 
 AIRSPEED_CAS = "airdata.cas_mps"
 """Blackboard key: the air-data family's airspeed (CAS, m/s) for the families after it."""
+FUSED = "fused"
+"""Source of a shared value: the vote of the healthy instances (Wan2018 eq. 19)."""
+VIRTUAL = "virtual"
+"""Source of a shared value: an estimator's virtual sensor while no instance is healthy (Wan2018
+Table I); good for a scale, not for judging another sensor by (a reader decides)."""
 
 
 @dataclass(frozen=True, slots=True)
 class SharedValue:
     """One value a family published for the families after it: what, when, and from what
-    (``"fused"``: the vote of the healthy instances, Wan2018 eq. 19; a withdrawal, NaN, says
-    why there is none)."""
+    (:data:`FUSED`, :data:`VIRTUAL`; a withdrawal, NaN, says why there is none)."""
 
     value: float
     t_us: int
@@ -96,11 +100,11 @@ class Blackboard:
     A family that judges a redundant set knows better than a family that merely reads it which
     instances to trust: the yaw-rate observer schedules on airspeed, and when two pitots of
     three are faulty their median is wrong while the air-data family's fused value is not;
-    when all are faulty that family says so instead of passing a wrong airspeed on. The
+    when all are faulty that family says so (its virtual sensor, marked as such). The
     pipeline runs the families in registry order, so a value put here on a Frame is read by
     the families after its writer on the same Frame. A reader falls back to its own reading of
-    the raw instances when nothing (fresh) is here: the
-    writer is disabled, or has not judged yet.
+    the raw instances when nothing (fresh) is here: the writer is disabled, or has not judged
+    yet.
     """
 
     __slots__ = ("_values",)

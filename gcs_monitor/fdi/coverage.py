@@ -14,7 +14,8 @@ covered share of the Frames of the last ``window_s`` of vehicle time. The family
   sample, or ``window_s`` after the first inputs when it never judges);
 * ``judging`` while the coverage is at least ``min_coverage``;
 * ``degraded`` otherwise: a ``monitor_degraded`` alarm (never a sensor fault) is raised, with
-  the reason most Frames were not judged, and cleared once the coverage is back above
+  the reason most Frames were not judged (a Frame between two samples of a slower driving
+  stream counts under the last sample's reason), and cleared once the coverage is back above
   ``clear_coverage`` (hysteresis).
 
 Deterministic, vehicle time only.
@@ -66,7 +67,8 @@ class FamilyCoverage:
 
     __slots__ = ("family", "cfg", "_window_us", "_hold_us", "_runs", "_covered_us", "_total_us",
                  "_reason_us", "_prev_t", "_last_judged_us", "_first_inputs_us", "_alarm",
-                 "state", "_all_us", "_all_covered_us", "_reason_last")
+                 "state", "_all_us", "_all_covered_us", "_reason_last", "_sample_reason",
+                 "_sample_us")
 
     def __init__(self, family: str, cfg: CoverageConfig, *, vehicle: int = 1,
                  alarm: AlarmParams | None = None) -> None:
@@ -89,6 +91,10 @@ class FamilyCoverage:
         self._all_us = 0  # since the family first judged (or was first due to)
         self._all_covered_us = 0
         self._reason_last = "no inputs yet"
+        # the latest Frame that carried a sample of the family's driving stream: why it was not
+        # judged, and when (a Frame between two samples says nothing new about why)
+        self._sample_reason = ""
+        self._sample_us = -1
 
     def recent(self) -> float:
         """Share of the window's time judged (NaN before anything was counted)."""
@@ -126,7 +132,16 @@ class FamilyCoverage:
             self._reason_last = st.reason or "starting"
             return []
         covered = last is not None and t - last <= self._hold_us
-        reason = "" if covered else (st.reason or "not judged")
+        if st.sample:
+            self._sample_reason, self._sample_us = st.reason, t
+        if covered:
+            reason = ""
+        elif not st.sample and self._sample_reason and t - self._sample_us <= self._hold_us:
+            # between two samples of a stream slower than the Frames ("between observer
+            # steps", "no new air data"): the uncovered time is the last sample's reason's
+            reason = self._sample_reason
+        else:
+            reason = st.reason or "not judged"
         prev = self._prev_t
         self._prev_t = t
         dt = t - prev if prev is not None and t > prev else 0

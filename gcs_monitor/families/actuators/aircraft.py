@@ -330,10 +330,11 @@ class AircraftTier:
         e = tuple(frame.euler_rad.tolist()) if frame.euler_rad is not None else None
         nan = math.nan
         hud = frame.hud
-        # the airspeed: the air-data family's (the fusion of the pitots its vote keeps), else
+        # the airspeed: the air-data family's (the fusion of the pitots its vote keeps, or its
+        # virtual CAS while it keeps none: a better scale than the ground speed in wind), else
         # the median of the pitots (one faulty pitot of three cannot move it; the autopilot's
         # VFR_HUD airspeed is one sensor, or its own fusion of them), else VFR_HUD's, else the
-        # ground speed. When the air-data family trusts no pitot, VFR_HUD's airspeed (made from
+        # ground speed. When the air-data family has no airspeed at all, VFR_HUD's (made from
         # the same pitots) is skipped too: the ground speed.
         shared = self.ctx.shared.get(AIRSPEED_CAS, frame.t_us, self.ctx.stale_after_s)
         if shared is not None:

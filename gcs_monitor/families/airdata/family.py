@@ -25,9 +25,9 @@ from typing import Any
 import numpy as np
 
 from gcs_monitor.families.airdata.config import AirDataFamilyConfig
-from gcs_monitor.families.airdata.estimator import AirDataEstimator
+from gcs_monitor.families.airdata.estimator import VIRTUAL_CAS, AirDataEstimator
 from gcs_monitor.families.airdata.weather import WeatherEstimator, wind_ned
-from gcs_monitor.families.base import AIRSPEED_CAS, FamilyContext, Verdict
+from gcs_monitor.families.base import AIRSPEED_CAS, FUSED, VIRTUAL, FamilyContext, Verdict
 from gcs_monitor.fdi.config import scheduled_threshold, set_params
 from gcs_monitor.fdi.fusion import MheMeasurementFusion
 from gcs_monitor.fdi.monitor import RedundantSetMonitor
@@ -192,20 +192,30 @@ class AirDataFamily:
         return out + [weather] if weather is not None else out
 
     def _share(self, t_us: int, verdict: Verdict) -> None:
-        """The airspeed the families after this one schedule on (the yaw-rate observer's
-        ``V_eas``, the aircraft tier's dynamic pressure): the eq. 19 fusion of the CAS
-        instances the vote keeps; with none healthy, no airspeed at all, which a reader must not
-        replace with the raw instances it was just told are faulty.
+        """The airspeed the families after this one use (the yaw-rate observer's ``V_eas``, the
+        aircraft tier's dynamic pressure): the eq. 19 fusion of the CAS instances the vote
+        keeps; with none healthy, the MHE's virtual CAS marked :data:`VIRTUAL` (Wan2018 Table
+        I), else no airspeed at all, which a reader must not replace with the raw instances it
+        was just told are faulty.
 
-        Not the MHE's virtual CAS: with the CAS set lost (Wan2018 Table I) the wind states
-        lose the measurement that makes them observable, and in the campaign's run 120 (three
-        CAS faults, shear and 3.5 m/s turbulence) the virtual CAS ran 6-21 m/s above the true
-        airspeed; the yaw-rate observer scheduled on it raised a false gyro alarm."""
+        The virtual CAS is a scale, not a reference: with the CAS set lost the wind states lose
+        the measurement that makes them observable, and in the campaign's run 120 (three CAS
+        faults, shear and 3.5 m/s turbulence) it ran 6-21 m/s above the true airspeed. The
+        yaw-rate observer scheduled on it raised a false gyro alarm and now declines it; the
+        aircraft tier, which otherwise falls back to the ground speed, raised false alarms in 14
+        of the 63 runs with two or more CAS faults on the ground speed, 7 on the virtual CAS."""
+        shared = self.ctx.shared
         cas = verdict.fused.get("cas")
         if cas is not None and math.isfinite(cas):
-            self.ctx.shared.put(AIRSPEED_CAS, cas, t_us, "fused")
+            shared.put(AIRSPEED_CAS, cas, t_us, FUSED)
+            return
+        last = self._last
+        v = (last.virtual.get(VIRTUAL_CAS) if last is not None and last.available
+             and last.numerics_ok and last.t_us == t_us else None)
+        if v is not None and math.isfinite(v):
+            shared.put(AIRSPEED_CAS, v, t_us, VIRTUAL)
         else:
-            self.ctx.shared.withdraw(AIRSPEED_CAS, t_us, "no healthy CAS instance")
+            shared.withdraw(AIRSPEED_CAS, t_us, "no healthy CAS instance")
 
     def _step(self, frame: Frame, verdict: Verdict) -> list[Estimate]:
         if self.estimator is None:

@@ -4,11 +4,12 @@ Per observer step (``[yaw_rate.observer] step_s``, Chen2020's 50 Hz), from the F
 ``y_p = [phi, beta, p, r]`` (ATTITUDE roll, AOA_SSA sideslip, the primary IMU's roll and yaw
 rates), ``u_p = [delta_a, delta_r]`` (surface positions, else commands, of DEBUG_FLOAT_ARRAY
 ``SURF``), and ``rho = [V_eas, V_eas^2]`` with ``V_eas`` from the air-data family's airspeed
-(the fusion of the CAS instances its vote keeps; none when it trusts none; the blackboard of
-:mod:`gcs_monitor.families.base`), else the median valid CAS instance, at the
-barometric altitude (Chen2020 eq. 59). The observer (:mod:`gcs_monitor.filters.lpv_smo`)
-gives the fault estimate of the monitored gyro axis, low-passed to the equivalent output
-injection, and the corrected (virtual) gyro ``y - f_hat`` (Chen2020 eq. 24).
+(the fusion of the CAS instances its vote keeps; not its virtual CAS when it keeps none: the
+observer does not judge then; the blackboard of :mod:`gcs_monitor.families.base`), else the
+median valid CAS instance, at the barometric altitude (Chen2020 eq. 59). The observer
+(:mod:`gcs_monitor.filters.lpv_smo`) gives the fault estimate of the monitored gyro axis,
+low-passed to the equivalent output injection, and the corrected (virtual) gyro ``y - f_hat``
+(Chen2020 eq. 24).
 
 A design of several altitude bands (:mod:`gcs_monitor.families.yaw_rate.design`) runs the band
 of the barometric altitude: on a change of band the observer re-anchors at the measurement with
@@ -26,7 +27,7 @@ import numpy as np
 
 from gcs_monitor.core.atmosphere import tas_from_cas
 from gcs_monitor.core.types import ChannelId
-from gcs_monitor.families.base import AIRSPEED_CAS, Blackboard, SharedValue
+from gcs_monitor.families.base import AIRSPEED_CAS, FUSED, Blackboard, SharedValue
 from gcs_monitor.families.yaw_rate.config import YawRateFamilyConfig
 from gcs_monitor.families.yaw_rate.design import ObserverDesign, load_bands
 from gcs_monitor.fdi.records import Estimate
@@ -64,8 +65,9 @@ class LateralInputs:
 def lateral_inputs(frame: Frame, stale_s: float,
                    airspeed: SharedValue | None = None) -> LateralInputs:
     """The observer's measurements of a Frame, or the first missing input. ``airspeed`` is the
-    air-data family's CAS when it has judged recently (NaN: it trusts no instance), else the
-    median of the fresh CAS instances is used."""
+    air-data family's CAS when it has judged recently; only a fused one is used (its virtual
+    CAS, while every CAS instance is faulty, drifts with the wind estimate, and a wrong V_eas
+    reads as a gyro fault); without it the median of the fresh CAS instances."""
     nan = math.nan
     imu = frame.primary_imu
     if imu is None:
@@ -80,9 +82,9 @@ def lateral_inputs(frame: Frame, stale_s: float,
         return LateralInputs(None, None, nan, "no surface deflections (SURF)")
     if airspeed is not None:
         v_cas = airspeed.value
-        if v_cas != v_cas:
-            return LateralInputs(None, None, nan, "no trusted airspeed (air-data family: "
-                                                  f"{airspeed.source})")
+        if airspeed.source != FUSED or v_cas != v_cas:
+            return LateralInputs(None, None, nan, "no trusted airspeed (the air-data family "
+                                                  "keeps no CAS instance)")
     else:
         cas = [c for c, a in zip(frame.cas_mps.tolist(), frame.cas_age_s.tolist(),
                                  strict=False) if c == c and a <= stale_s]

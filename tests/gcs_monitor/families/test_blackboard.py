@@ -17,6 +17,7 @@ from gcs_monitor.families.airdata.config import AirDataFamilyConfig  # noqa: E40
 from gcs_monitor.families.airdata.family import AirDataFamily  # noqa: E402
 from gcs_monitor.families.base import (  # noqa: E402
     AIRSPEED_CAS,
+    VIRTUAL,
     Blackboard,
     FamilyContext,
     SharedValue,
@@ -51,9 +52,11 @@ def test_the_yaw_rate_inputs_take_the_shared_airspeed_over_the_median() -> None:
     assert abs(lateral_inputs(fr, 0.5).eas_mps - 90.0) < 1e-5  # the median; sea level
     inp = lateral_inputs(fr, 0.5, SharedValue(60.0, 0, "fused"))
     assert abs(inp.eas_mps - 60.0) < 1e-5 and inp.y_p is not None
-    lost = lateral_inputs(fr, 0.5, SharedValue(math.nan, 0, "no healthy CAS instance"))
-    assert lost.y_p is None and lost.reason == ("no trusted airspeed (air-data family: no "
-                                                "healthy CAS instance)")
+    for shared in (SharedValue(math.nan, 0, "no healthy CAS instance"),
+                   SharedValue(75.0, 0, VIRTUAL)):  # the MHE's while no pitot is healthy
+        lost = lateral_inputs(fr, 0.5, shared)
+        assert lost.y_p is None and lost.reason == ("no trusted airspeed (the air-data family "
+                                                    "keeps no CAS instance)")
 
 
 def _shared_after(faults: tuple[synth.SensorFault, ...], t_from_us: int
@@ -87,15 +90,15 @@ def test_a_biased_pitot_is_left_out_of_the_shared_airspeed() -> None:
     assert abs(err.mean()) < 0.3 and np.abs(err).max() < 1.5  # the two healthy pitots
 
 
-def test_with_every_pitot_judged_faulty_the_airspeed_is_withdrawn() -> None:
+def test_with_every_pitot_judged_faulty_the_airspeed_is_the_virtual_cas() -> None:
     """Two of three biased at once: before the pair is isolated the fusion drags the MHE, the
-    healthy pitot's residual crosses too and the set is lost (Wan2018 Table I). No airspeed is
-    shared then (the MHE's virtual CAS drifts without its CAS row); the median of the pitots is
-    12 m/s off, which is why a reader must not fall back to it."""
+    healthy pitot's residual crosses too and the set is lost (Wan2018 Table I). The shared
+    airspeed is then the MHE's virtual CAS, marked as such (0.85 m/s off here, in calm air);
+    the median of the pitots is 12 m/s off, which is why a reader must not fall back to it."""
     faults = tuple(synth.SensorFault("cas", i, 20.0, "bias", 12.0) for i in (1, 2))
     shared, truth, median, sources = _shared_after(faults, 25_000_000)
-    assert len(shared) == 300 and sources == {"no healthy CAS instance"}
-    assert np.isnan(shared).all()
+    assert len(shared) == 300 and sources == {VIRTUAL}
+    assert np.abs(shared - truth).max() < 2.0
     assert np.mean(median - truth) > 10.0
 
 

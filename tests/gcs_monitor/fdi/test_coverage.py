@@ -67,6 +67,31 @@ def test_hold_covers_a_slower_stream() -> None:
     assert events == [] and cov.coverage.recent == 1.0
 
 
+def test_frames_between_samples_count_under_the_last_samples_reason() -> None:
+    """A 25 Hz observer on 100 Hz Frames, out of its speed range for 5 s: three Frames in four
+    say "between observer steps" (no sample of its own), the others why the sample was not
+    judged; the alarm names the latter (the reason with the most uncovered time named the
+    former in the Wan2018 campaign)."""
+    cov = FamilyCoverage("yaw_rate", CoverageConfig())
+    events = []
+    for k in range(4000):
+        t = k * DT
+        own = k % 4 == 0
+        judged = own and not 2000 <= k < 2500
+        why = "" if judged else ("EAS below the design's range" if own else
+                                 "between observer steps")
+        events += cov.step(FamilyStatus("yaw_rate", t, judged, sample=own, reason=why))
+    raised = [e for e in events if e.state is AlarmState.RAISED]
+    assert len(raised) == 1 and raised[0].message.endswith("EAS below the design's range")
+    # a stream that stops: after hold_s its Frames' own reason counts again
+    cov = FamilyCoverage("airdata", CoverageConfig())
+    for k in range(3000):
+        own = k % 5 == 0 and k < 2000
+        cov.step(FamilyStatus("airdata", k * DT, own, sample=own,
+                              reason="" if own else "no new air data"))
+    assert cov.coverage.reason == "no new air data"
+
+
 def test_bad_config() -> None:
     with pytest.raises(ValueError, match="min_coverage"):
         CoverageConfig(min_coverage=0.96, clear_coverage=0.95)
