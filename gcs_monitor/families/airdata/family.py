@@ -29,6 +29,7 @@ from gcs_monitor.families.airdata.estimator import VIRTUAL_CAS, AirDataEstimator
 from gcs_monitor.families.airdata.weather import WeatherEstimator, wind_ned
 from gcs_monitor.families.base import AIRSPEED_CAS, FUSED, VIRTUAL, FamilyContext, Verdict
 from gcs_monitor.fdi.config import scheduled_threshold, set_params
+from gcs_monitor.fdi.events import AlarmState
 from gcs_monitor.fdi.fusion import MheMeasurementFusion
 from gcs_monitor.fdi.monitor import RedundantSetMonitor
 from gcs_monitor.fdi.records import Estimate, FamilyStatus
@@ -138,7 +139,14 @@ class AirDataFamily:
             else:
                 verdict.fused[s] = status.fused if math.isfinite(status.fused) else None
             verdict.sets.append(status)
-            if events or self.sets[s].suspected:
+            # the weather estimate holds when the set's membership changes (an isolation, a
+            # readmission) or an instance is suspected; a relabel of an instance already
+            # isolated (UPDATED, every few seconds while its alarm stands) changes nothing the
+            # fusion uses: holding on it froze the estimate for as long as any alarm stood
+            # (triplex run 41: an AoA instance isolated at 30.9 s, a 10 m/s shear from 33.5 s
+            # never learnt, all three CAS flagged at 41.8 s)
+            if self.sets[s].suspected or any(e.state is not AlarmState.UPDATED
+                                             for e in events):
                 self._hold = True
         return verdict
 
