@@ -11,8 +11,10 @@ measured kinematically at every air-data sample from signals the monitor already
 with V_t from the *fused* CAS (Wan2018 eq. 16 inverted, ISA), alpha the fused AoA (eq. 19) and
 beta the sideslip vane (0 when absent). It is robust to the faults the family monitors: the
 fused values leave isolated instances out, and the estimate is frozen while an instance is
-suspected (its J above J_th, not yet isolated) and for ``hold_s`` after any isolation, and while
-a set has no healthy instance.
+suspected (its J above J_th, not yet isolated) and for ``hold_s`` after any isolation or
+readmission, and while a set has no healthy instance. A relabel of an instance already isolated
+(an UPDATED alarm event) does not hold it: that instance is out of the fusion already, and holding
+on it froze the estimate for as long as any alarm stood.
 
 From the wind samples (one per air-data sample):
 
@@ -58,7 +60,8 @@ class WeatherConfig:
                             "rate of this span (fast attack, slow decay)", positive=True)
     converge_s: float = param(20.0, "usable wind samples needed before the estimate replaces "
                               "the declared prior", positive=True)
-    hold_s: float = param(5.0, "no update for this long after an instance was isolated",
+    hold_s: float = param(5.0, "no update for this long after an instance was isolated or "
+                          "readmitted (not after a relabel of one already isolated)",
                           positive=True)
     sigma_margin: float = param(1.25, "turbulence estimate multiplied by this (its own spread "
                                 "over one window)", positive=True)
