@@ -127,6 +127,7 @@ class Signals:
     servo_t_us: int
     nav_t_us: int
     hud_t_us: int
+    airspeed_src: str = ""  # where airspeed_mps comes from (AircraftTier._signals)
 
 
 def _share(kappa: float) -> str:
@@ -230,6 +231,7 @@ class _Axis:
     nu: float = 0.0
     z: float = 0.0  # loss of effectiveness, in standard errors
     judged: bool = False
+    identified: bool = False  # the command's effect b has been identified (latched per model)
     hist: deque[tuple[int, float, float, float]] = field(default_factory=deque)
     next_class_us: int = 0
     effectiveness: float = math.nan
@@ -283,6 +285,7 @@ class _Axis:
         self.hist.clear()
         self.res = self.eff = None  # rebuilt with the new step period
         self.nu = self.z = 0.0
+        self.identified = False
         self.effectiveness = self.position_rad = math.nan
         self.thr_lag = []
         self.lag_models = []
@@ -314,6 +317,9 @@ class AircraftTier:
         # some axis has not stepped on the latest command yet (it waits for a new response:
         # ALFA's setpoints come at ~12 Hz, its IMU at 2.5 Hz)
         self._pending = True
+        self._v_src = ""  # the airspeed's source the models were learnt on
+        self._restart_why = ""  # why the models restarted last (the warm-up's reason) ...
+        self._restart_us = -1  # ... and when
 
     # -- signals ---------------------------------------------------------------------------
     def _signals(self, frame: Frame) -> Signals | None:
@@ -338,14 +344,14 @@ class AircraftTier:
         # the same pitots) is skipped too: the ground speed.
         shared = self.ctx.shared.get(AIRSPEED_CAS, frame.t_us, self.ctx.stale_after_s)
         if shared is not None:
-            v = shared.value
+            v, src = shared.value, f"the air-data family's {shared.source} CAS"
         else:
             pitots = [c for c in frame.cas_mps.tolist() if c > 0.0]  # False for NaN
-            v = statistics.median(pitots) if pitots else nan
+            v, src = (statistics.median(pitots), "the pitots' median") if pitots else (nan, "")
             if v != v and hud is not None and hud.airspeed_mps > 0.0:
-                v = hud.airspeed_mps
+                v, src = hud.airspeed_mps, "VFR_HUD"
         if v != v and frame.gps_vel_ned_mps is not None:
-            v = float(np.linalg.norm(frame.gps_vel_ned_mps))
+            v, src = float(np.linalg.norm(frame.gps_vel_ned_mps)), "the ground speed"
         out = self.cfg.outputs
         u = [nan, nan, nan]
         thr = nan
@@ -371,7 +377,7 @@ class AircraftTier:
         return Signals(frame.t_us, omega, f, e, v, (u[0], u[1], u[2]), thr, er, ep, ee,
                        servo.t_us if servo is not None else -1,
                        nav.t_us if nav is not None else -1,
-                       hud.t_us if hud is not None else -1)
+                       hud.t_us if hud is not None else -1, src if v == v else "")
 
     def _mode(self, ax: _Axis, s: Signals) -> str:
         src = self.cfg.command_source
@@ -523,6 +529,8 @@ class AircraftTier:
                                         inputs=self._seen_inputs))
         stepped: list[tuple[_Axis, float, list[float], np.ndarray, float]] = []
         reasons: list[str] = []
+        if s.airspeed_src and s.airspeed_src != self._v_src:
+            self._airspeed_source(s)
         for ax in self.axes:
             step = self._step_axis(ax, s, reasons)
             if step is not None:
@@ -548,6 +556,23 @@ class AircraftTier:
 
     def update(self, frame: Frame, verdict: Verdict) -> list[Estimate]:
         return [self._estimate] if self._estimate is not None else []
+
+    def _airspeed_source(self, s: Signals) -> None:
+        """The airspeed now comes from another source (the air-data family lost its CAS set
+        and shares its virtual CAS, or nothing and the ground speed stands in): the models'
+        dynamic-pressure scale ``(V / V_ref)^2`` was learnt on the old one and jumps with the
+        difference (a wind of 10 m/s is 25 % of the scale at 80 m/s). A change of the scale is
+        no fault of an actuator: the models restart on the new source, with their warm-up
+        (coverage says why), and ``V_ref`` is taken afresh. The first source is no change."""
+        old, self._v_src = self._v_src, s.airspeed_src
+        if not old:
+            return
+        self._restart_why = f"airspeed from {s.airspeed_src}, was {old}: the models restart"
+        self._restart_us = s.t_us
+        self._v_ref = self.cfg.model.airspeed_ref_mps
+        for ax in self.axes:
+            if ax.mode:
+                ax.reset(ax.mode, s.t_us)
 
     # -- per axis ----------------------------------------------------------------------------
     def _step_axis(self, ax: _Axis, s: Signals, reasons: list[str]
@@ -611,7 +636,12 @@ class AircraftTier:
             e = max(e, -max(float(ax.ref.theta[0]) * phi[0], 0.0))
         floor = m.min_accel_sigma_mps2 if ax.index == ENGINE else m.min_rate_sigma_radps
         sigma = math.sqrt(max(ax.sigma2, floor * floor)) if ax.sigma2 == ax.sigma2 else math.inf
-        nu = e / sigma
+        # the a priori prediction error's spread includes the model's own parameter
+        # uncertainty along this regressor: var(e) = sigma^2 (1 + phi^T P phi) (Ljung and
+        # Soderstrom 1983, sec. 2.6; P is the parameter covariance over sigma^2). A command
+        # the model has not seen (a rudder first used in an S-turn after 40 s at zero) is
+        # not a fault of the surface: the model cannot predict it yet.
+        nu = e / (sigma * math.sqrt(1.0 + float(phi_v @ ax.ref.P @ phi_v)))
         ax.nu = nu
         sq = self._scale(prev)
         ax.hist.append((s.t_us, phi[0], e, sq))
@@ -619,12 +649,14 @@ class AircraftTier:
         while ax.hist and ax.hist[0][0] < horizon:
             ax.hist.popleft()
         why = self._not_judged(ax, s)
+        if not why:
+            if ax.res is None:  # sized with the step period measured at the warm-up's end
+                self._build_fdi(ax)
+            why = self._unidentified(ax)
         if why:
             reasons.append(f"{ax.channel.axis}: {why}")
         else:
             ax.judged = True
-            if ax.res is None:
-                self._build_fdi(ax)
             assert ax.res is not None and ax.eff is not None
             scale = self._convergence(ax, s.t_us)
             ax.res.update(nu / scale)
@@ -649,7 +681,8 @@ class AircraftTier:
     def _not_judged(self, ax: _Axis, s: Signals) -> str:
         m = self.cfg.model
         if s.t_us - ax.t_start_us < m.warmup_s * US_PER_S or ax.sigma2 != ax.sigma2:
-            return "warm-up"
+            return (f"warm-up ({self._restart_why})" if ax.t_start_us == self._restart_us
+                    else "warm-up")
         period = ax.period_s
         if math.isfinite(period) and 1.0 / period < self.cfg.min_rate_hz:
             return (f"control samples at {1.0 / period:.1f} Hz, below the "
@@ -657,6 +690,23 @@ class AircraftTier:
         v = s.airspeed_mps
         if math.isfinite(v) and v < m.min_airspeed_mps:
             return f"airspeed {v:.1f} m/s below {m.min_airspeed_mps:g} m/s"
+        return ""
+
+    def _unidentified(self, ax: _Axis) -> str:
+        """Why a surface's command effect is not identified yet (empty once it is)."""
+        m = self.cfg.model
+        if not ax.identified and ax.index != ENGINE and m.identified_se > 0.0:
+            # a surface whose command has not moved enough since its model started (a rudder
+            # held at neutral by a coordinated autopilot) has an unidentified effect b: the
+            # model cannot predict its first use, which is not a fault (the triplex
+            # campaign's run 90: "rudder stuck" 1 s into an S-turn). Latched: once identified,
+            # a later loss of effectiveness is what the checks are for. Not the engine: its
+            # throttle may hold for a whole cruise, and a thrust deficit needs no slope.
+            assert ax.ref is not None
+            se = math.sqrt(max(ax.sigma2, m.min_rate_sigma_radps ** 2) * float(ax.ref.P[0, 0]))
+            if abs(float(ax.ref.theta[0])) <= m.identified_se * se:
+                return "the command's effect not identified yet (the surface has not moved enough)"
+            ax.identified = True
         return ""
 
     def _convergence(self, ax: _Axis, t_us: int) -> float:

@@ -93,6 +93,10 @@ class ModelConfig:
                                         positive=True)
     min_accel_sigma_mps2: float = param(0.02, "floor of the specific-force residual RMS",
                                         positive=True)
+    identified_se: float = param(3.0, "a surface is judged once its model has identified the "
+                                 "command's effect: |b| above this many standard errors "
+                                 "sigma sqrt(P_bb) (a surface the autopilot has not moved yet "
+                                 "cannot be judged); 0 turns the check off")
     freeze_ratio: float = param(0.75, "the reference models and residual RMS stop learning "
                                 "while any check's J is above this share of its J_th",
                                 positive=True)

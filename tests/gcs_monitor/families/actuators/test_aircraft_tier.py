@@ -15,7 +15,7 @@ from gcs_monitor.core.types import ChannelId
 from gcs_monitor.families.actuators.aircraft import AircraftTier
 from gcs_monitor.families.actuators.config import ActuatorFamilyConfig
 from gcs_monitor.families.actuators.family import ActuatorFamily
-from gcs_monitor.families.base import FamilyContext
+from gcs_monitor.families.base import AIRSPEED_CAS, FUSED, FamilyContext
 from gcs_monitor.fdi.events import AlarmKind, AlarmState, FaultType
 from gcs_monitor.telemetry.frame import Frame, HudSample, ImuSample, ServoOutputs
 
@@ -27,7 +27,8 @@ CTX = FamilyContext(vehicle=1, stale_after_s=0.5)
 
 
 def _frames(duration_s: float, *, stuck_at_s: float | None = None, stuck_rad: float = 0.05,
-            seed: int = 0, repeat: int = 1, stop_from_s: float | None = None):
+            seed: int = 0, repeat: int = 1, stop_from_s: float | None = None,
+            rudder_from_s: float = 0.0):
     """Frames of a linear aircraft driven by random surface commands (every ``repeat``-th
     response is a new measurement, the others repeat it, as a logger's forward fill); from
     ``stop_from_s`` the aileron is commanded to its end stop, and goes to its travel's end
@@ -41,6 +42,8 @@ def _frames(duration_s: float, *, stuck_at_s: float | None = None, stuck_rad: fl
         t_us = round(t * 1e6)
         u = 0.1 * np.sin(2 * math.pi * np.array([0.3, 0.23, 0.17]) * t + np.arange(3)) \
             + 0.03 * rng.standard_normal(3)
+        if t < rudder_from_s:
+            u[2] = 0.0  # the rudder not used yet (a coordinated autopilot in straight flight)
         if stop_from_s is not None and t >= stop_from_s:
             u[0] = MAX_DEFL
         acting = u_prev.copy()
@@ -57,7 +60,8 @@ def _frames(duration_s: float, *, stuck_at_s: float | None = None, stuck_rad: fl
         yield Frame(t_us, [ImuSample(t_us, 0, held[1], held[0])], euler_rad=np.zeros(3),
                     att_age_s=0.0, att_rate_frd_radps=held[0],
                     servo=ServoOutputs(t_us, pwm, tuple((x - 1500) / 500 for x in pwm)),
-                    servo_age_s=0.0, hud=HudSample(t_us, 25.0, 25.0, 0.0, 0.5), hud_age_s=0.0)
+                    servo_age_s=0.0, hud=HudSample(t_us, 25.0, 25.0, 0.0, 0.5), hud_age_s=0.0,
+                    gps_vel_ned_mps=np.array([20.0, 0.0, 0.0]))  # a 5 m/s headwind
 
 
 def _run(tier, frames):
@@ -285,3 +289,51 @@ def test_after_a_gap_the_engine_settles_before_it_is_judged():
     eng = tier.axes[3]
     assert eng.settle_us == pytest.approx(42.0e6 + 3.0 * 1.2e6, abs=0.05e6)
     assert eng.judged  # judged again by the end
+
+
+def test_a_surface_first_used_late_is_not_a_fault():
+    """The rudder is not used for 30 s (command exactly neutral), then the autopilot starts
+    using it (an S-turn): its model has never seen the command's effect, and cannot predict
+    its first use. The surface is judged once that effect is identified (|b| above 3 standard
+    errors), not before (the triplex campaign's run 90: "rudder stuck" 1 s into its first
+    use); judged without that rule, the same flight raises the rudder."""
+    tier = _tier()
+    frames = list(_frames(50.0, rudder_from_s=30.0))
+    events, _ = _run(tier, frames[:round(29.0 / DT)])
+    ax = tier.axes[2]
+    assert tier.axes[0].judged and not ax.judged and not ax.identified  # past the warm-up
+    more, _ = _run(tier, frames[round(29.0 / DT):])
+    assert not [e for e in events + more if e.kind is AlarmKind.ACTUATOR_FAULT]
+    assert ax.ref is not None and ax.judged and ax.identified
+    assert abs(float(ax.ref.theta[0]) - B) < 0.05  # the rudder's effectiveness, learnt
+    cfg = ActuatorFamilyConfig().aircraft
+    always = AircraftTier(dataclasses.replace(
+        cfg, model=dataclasses.replace(cfg.model, identified_se=0.0)), CTX)
+    events, _ = _run(always, _frames(50.0, rudder_from_s=30.0))
+    assert [e.channel.axis for e in events if e.state is AlarmState.RAISED] == ["rudder"]
+
+
+def test_a_change_of_airspeed_source_restarts_the_models():
+    """The air-data family shares its fused CAS, then loses its CAS set and withdraws it: the
+    tier falls back to the ground speed (5 m/s less here), and its dynamic-pressure scale
+    (V / V_ref)^2 would jump by a third. That is no actuator fault: the models restart on the
+    new source, coverage says why, and they judge again after their warm-up."""
+    ctx = FamilyContext(vehicle=1, stale_after_s=0.5)
+    tier = AircraftTier(ActuatorFamilyConfig().aircraft, ctx)
+    events, statuses = [], []
+    switch_s = 30.0
+    for f in _frames(55.0):
+        t = f.t_us * 1e-6
+        if t < switch_s:
+            ctx.shared.put(AIRSPEED_CAS, 25.0, f.t_us, FUSED)
+        else:
+            ctx.shared.withdraw(AIRSPEED_CAS, f.t_us, "no healthy CAS instance")
+        v = tier.judge(f, tier.predict(f))
+        events += v.events
+        statuses.append((t, v.status))
+    assert not [e for e in events if e.kind is AlarmKind.ACTUATOR_FAULT]
+    after = [st for t, st in statuses if switch_s < t < switch_s + 5.0 and st.sample]
+    assert after and not any(st.judged for st in after)
+    assert "airspeed from the ground speed, was the air-data family's fused CAS" in \
+        after[-1].reason
+    assert statuses[-1][1].judged  # judged again after the warm-up
