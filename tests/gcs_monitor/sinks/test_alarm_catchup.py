@@ -85,8 +85,11 @@ def test_a_paused_subscriber_catches_up_every_alarm_and_says_so() -> None:
     text = [ln for ln in lines if " v1 " in ln]
     assert len(text) == 16, lines
     assert [int(ln.split("alarm ")[1].split()[0]) for ln in text] == list(range(16))
-    caught_up = [ln for ln in text if "(caught up: published" in ln]
-    assert len(caught_up) == 13  # exactly the alarms published during the pause
+    caught_up = ["(caught up: published" in ln for ln in text]
+    # exactly the alarms published during the pause came through the catch-up, the two after
+    # it live; alarm 0 may come either way (published while the subscriber was starting: on a
+    # loaded machine it reached it through the start-up query, marked caught up)
+    assert caught_up[1:] == [True] * 13 + [False] * 2
     assert not any(ln.startswith("!! missed") for ln in lines)
 
 
