@@ -87,11 +87,17 @@ Table I); good for a scale, not for judging another sensor by (a reader decides)
 @dataclass(frozen=True, slots=True)
 class SharedValue:
     """One value a family published for the families after it: what, when, and from what
-    (:data:`FUSED`, :data:`VIRTUAL`; a withdrawal, NaN, says why there is none)."""
+    (:data:`FUSED`, :data:`VIRTUAL`; a withdrawal, NaN, says why there is none).
+
+    ``survivor`` marks a fused value that is the one instance left of a set that has lost the
+    others: no vote checks it any more, and what took the others (icing, a blocked drain) may
+    be on it too. It is still the best measurement there is; a reader that judges something
+    else *by* it (the aircraft tier's thrust against drag) may decline it."""
 
     value: float
     t_us: int
     source: str
+    survivor: bool = False
 
 
 class Blackboard:
@@ -112,8 +118,9 @@ class Blackboard:
     def __init__(self) -> None:
         self._values: dict[str, SharedValue] = {}
 
-    def put(self, key: str, value: float, t_us: int, source: str) -> None:
-        self._values[key] = SharedValue(value, t_us, source)
+    def put(self, key: str, value: float, t_us: int, source: str, *,
+            survivor: bool = False) -> None:
+        self._values[key] = SharedValue(value, t_us, source, survivor)
 
     def withdraw(self, key: str, t_us: int, source: str) -> None:
         """The writer judged and has no value (every instance faulty, no estimator): readers

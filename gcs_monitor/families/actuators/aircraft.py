@@ -12,12 +12,13 @@ in one of two forms depending on what the telemetry carries:
       aileron   p_k = b u_a s + a p + c r + d
       elevator  q_k = b u_e s + a q + c f_z + d
       rudder    r_k = b u_r s + a r + c f_y + c' p + d
-      engine    f_x,k = b lag_tau(thr) + a s + c f_z + d
+      engine    f_x,k = b lag_tau(thr) + a s + c f_z + e f_z^2 / s + d
 
   every right-hand term taken at the previous control sample k-1 (causal: see
   :meth:`AircraftTier._regression`), with ``s = (V / V_ref)^2``, ``f`` the specific force
   (FRD), ``thr`` the throttle 0..1 and ``lag_tau`` a first-order lag of it (its time constant
-  the data's choice, :meth:`AircraftTier._throttle_lag`);
+  the data's choice, :meth:`AircraftTier._throttle_lag`; ``f_z^2 / s`` the induced drag and
+  the lift's share along body x, :meth:`AircraftTier._regression`);
 * **setpoint** -- no servo outputs: the command is the attitude error the autopilot is
   correcting (NAV_CONTROLLER_OUTPUT minus ATTITUDE), a closed-loop model: roll rate against
   the bank error, pitch rate against the pitch error, yaw rate against the coordinated-turn
@@ -73,7 +74,7 @@ from gcs_monitor.families.actuators.config import (
     AircraftTierConfig,
     ResidualCheckConfig,
 )
-from gcs_monitor.families.base import AIRSPEED_CAS, FamilyContext, Verdict
+from gcs_monitor.families.base import AIRSPEED_CAS, VIRTUAL, FamilyContext, Verdict
 from gcs_monitor.fdi.alarms import AlarmStateMachine
 from gcs_monitor.fdi.config import samples_in
 from gcs_monitor.fdi.confirmation import Confirmation, ConfirmationParams
@@ -96,6 +97,10 @@ LAG_MIN_SAMPLES = 100
 # (the throttle in the gap is unknown; 3 time constants leave 5 % of its effect)
 LAG_SETTLE = 3.0
 ESTIMATOR = "actuators_aircraft"
+# the dynamic-pressure scale (V / V_ref)^2 is floored here where it divides (the induced-drag
+# regressor): below a fifth of the reference speed nothing is judged anyway (min_airspeed_mps)
+MIN_SCALE = 0.04
+ENGINE_INDUCED = 3  # index of the induced-drag regressor f_z^2 / s in the engine's servo form
 STOP_SHARE = 0.98  # a surface command at or beyond this share of its full deflection is at the stop
 PERIOD_REFRESH = 50  # axis steps between two re-measurements of the step period
 ESTIMATE_PERIOD_US = 100_000  # estimates (dashboard, evaluation) at most at 10 Hz
@@ -128,6 +133,9 @@ class Signals:
     nav_t_us: int
     hud_t_us: int
     airspeed_src: str = ""  # where airspeed_mps comes from (AircraftTier._signals)
+    # why airspeed_mps is no measured, cross-checked airspeed (empty when it is): the engine's
+    # thrust is told from drag by it (AircraftTier._not_judged)
+    airspeed_doubt: str = ""
 
 
 def _share(kappa: float) -> str:
@@ -243,6 +251,9 @@ class _Axis:
     lag_models: list[_LagModel] = field(default_factory=list)
     lag_k: int = 0
     settle_us: int = -1  # after a gap the engine is not judged before this time
+    # the engine's induced-drag regressor's range over the samples its reference model learnt
+    ind_lo: float = math.inf
+    ind_hi: float = -math.inf
 
     @property
     def faulty(self) -> bool:
@@ -291,6 +302,7 @@ class _Axis:
         self.lag_models = []
         self.lag_k = 0
         self.settle_us = -1
+        self.ind_lo, self.ind_hi = math.inf, -math.inf
 
 
 class AircraftTier:
@@ -343,8 +355,13 @@ class AircraftTier:
         # ground speed. When the air-data family has no airspeed at all, VFR_HUD's (made from
         # the same pitots) is skipped too: the ground speed.
         shared = self.ctx.shared.get(AIRSPEED_CAS, frame.t_us, self.ctx.stale_after_s)
+        doubt = ""
         if shared is not None:
             v, src = shared.value, f"the air-data family's {shared.source} CAS"
+            if shared.source == VIRTUAL:
+                doubt = "the airspeed is the air-data family's model estimate (no pitot healthy)"
+            elif shared.survivor:
+                doubt = "the airspeed is the last healthy pitot of its set, unchecked"
         else:
             pitots = [c for c in frame.cas_mps.tolist() if c > 0.0]  # False for NaN
             v, src = (statistics.median(pitots), "the pitots' median") if pitots else (nan, "")
@@ -377,7 +394,7 @@ class AircraftTier:
         return Signals(frame.t_us, omega, f, e, v, (u[0], u[1], u[2]), thr, er, ep, ee,
                        servo.t_us if servo is not None else -1,
                        nav.t_us if nav is not None else -1,
-                       hud.t_us if hud is not None else -1, src if v == v else "")
+                       hud.t_us if hud is not None else -1, src if v == v else "", doubt)
 
     def _mode(self, ax: _Axis, s: Signals) -> str:
         src = self.cfg.command_source
@@ -436,9 +453,19 @@ class AircraftTier:
             else:  # the throttle saturates as the energy error grows
                 e_max = self.cfg.model.max_energy_error_mps
                 cmd = max(-e_max, min(e_max, prev.energy_err_mps))
-            if ax.mode == SERVO:
-                cmd = self._throttle_lag(ax, cmd, s.t_us - prev.t_us)
-            return s.f[0], [cmd, sq, fp[2], 1.0]
+            if ax.mode != SERVO:
+                return s.f[0], [cmd, sq, fp[2], 1.0]
+            # with the throttle, a force balance along body x: thrust, parasite drag (q),
+            # and what the angle of attack adds as the speed falls at a given load: induced
+            # drag and the lift's share along body x, both ~ n^2 / q in near-level flight
+            # (C_L ~ n / q, C_Di ~ C_L^2, alpha ~ C_L), so f_z^2 / s. Without it the model,
+            # linear in s, learnt in a deceleration, reads the drag of the slow flight that
+            # follows as thrust lost (triplex run 45, Wan2018 campaign run 165: "25 % of
+            # thrust lost" when the throttle opened again at 65-75 m/s). The setpoint form is
+            # a closed-loop model of the energy error, not a force balance: not there (on
+            # ALFA's flights it cost an engine detection and raised a false one).
+            cmd = self._throttle_lag(ax, cmd, s.t_us - prev.t_us)
+            return s.f[0], [cmd, sq, fp[2], fp[2] * fp[2] / max(sq, MIN_SCALE), 1.0]
         lim = self.cfg.model.max_setpoint_error_rad
         if ax.mode == SERVO:
             cmd = prev.u_rad[i] * sq
@@ -625,7 +652,8 @@ class AircraftTier:
                                            RlsFilter(len(phi), m.initial_covariance))
                                  for k, tau in enumerate(self._lags)]
         phi_v = np.array(phi)
-        e = y - ax.ref.predict(phi_v)
+        phi_p = self._within_learnt(ax, phi_v)
+        e = y - ax.ref.predict(phi_p)
         ax.e_ref = e
         if ax.index == ENGINE and ax.mode == SERVO:
             # an engine can lose at most the thrust it was making: with the throttle known, the
@@ -641,7 +669,7 @@ class AircraftTier:
         # Soderstrom 1983, sec. 2.6; P is the parameter covariance over sigma^2). A command
         # the model has not seen (a rudder first used in an S-turn after 40 s at zero) is
         # not a fault of the surface: the model cannot predict it yet.
-        nu = e / (sigma * math.sqrt(1.0 + float(phi_v @ ax.ref.P @ phi_v)))
+        nu = e / (sigma * math.sqrt(1.0 + float(phi_p @ ax.ref.P @ phi_p)))
         ax.nu = nu
         sq = self._scale(prev)
         ax.hist.append((s.t_us, phi[0], e, sq))
@@ -673,6 +701,24 @@ class AircraftTier:
             else math.nan
         return ax, y, phi, phi_v, sq
 
+    @staticmethod
+    def _within_learnt(ax: _Axis, phi_v: np.ndarray) -> np.ndarray:
+        """The regressors the engine's reference model predicts from: its induced-drag term
+        ``f_z^2 / s`` held within the range the model has learnt. The term is quadratic in the
+        load: after a jammed aileron the aircraft rolls and pulls loads the model never saw,
+        and the term's extrapolation read 25 % of thrust lost (actuators_sim run 0). Inside
+        the range, what was learnt; beyond it, no more than its edge. The models learn the
+        unclipped value (their range grows in healthy flight)."""
+        if ax.index != ENGINE or ax.mode != SERVO or not ax.ind_hi >= ax.ind_lo:
+            return phi_v
+        x = float(phi_v[ENGINE_INDUCED])
+        xc = min(max(x, ax.ind_lo), ax.ind_hi)
+        if xc == x:
+            return phi_v
+        out = phi_v.copy()
+        out[ENGINE_INDUCED] = xc
+        return out
+
     def _at_stop(self, ax: _Axis, prev: Signals) -> bool:
         """The surface's servo-output command (the one acting) is at its end stop (NaN: no)."""
         return ax.mode == SERVO and abs(prev.u_rad[ax.index]) >= \
@@ -690,6 +736,17 @@ class AircraftTier:
         v = s.airspeed_mps
         if math.isfinite(v) and v < m.min_airspeed_mps:
             return f"airspeed {v:.1f} m/s below {m.min_airspeed_mps:g} m/s"
+        if ax.index == ENGINE and s.airspeed_doubt and not ax.suspected(m.freeze_ratio):
+            # the engine's model tells thrust from drag by the airspeed (its a s term): an
+            # airspeed that drifts moves the drag it predicts, and reads as thrust lost
+            # (Wan2018 campaign: run 153, the last pitot running away before the air-data
+            # family isolated it; run 241, the virtual CAS after the set was lost in a
+            # shear: the wind states lose the measurement that makes them observable). The
+            # ground speed, where no airspeed is sent at all (ALFA), does not drift: a steady
+            # wind is in the model's terms from its start. The surfaces take the airspeed as a
+            # scale only and are judged. A check that already suspects the engine keeps
+            # judging (the loss came first).
+            return f"{s.airspeed_doubt}: thrust is not told from drag on it"
         return ""
 
     def _unidentified(self, ax: _Axis) -> str:
@@ -781,6 +838,9 @@ class AircraftTier:
                                                     m.sigma_memory_s, m.huber_c)
             if len(ax.lag_models) > 1:
                 self._learn_lags(ax, y, phi, dt, lam, w)
+            if ax.index == ENGINE and ax.mode == SERVO:
+                x = phi[ENGINE_INDUCED]
+                ax.ind_lo, ax.ind_hi = min(ax.ind_lo, x), max(ax.ind_hi, x)
 
         b_ref = float(ax.ref.theta[0])
         ax.effectiveness = 1.0 + float(ax.trk.theta[0]) / b_ref if abs(b_ref) > 1e-9 \

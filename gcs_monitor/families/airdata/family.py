@@ -215,7 +215,13 @@ class AirDataFamily:
         shared = self.ctx.shared
         cas = verdict.fused.get("cas")
         if cas is not None and math.isfinite(cas):
-            shared.put(AIRSPEED_CAS, cas, t_us, FUSED)
+            # one instance left of several: the value is that pitot alone, unchecked (run 153
+            # of the Wan2018 campaign: the last pitot's runaway read as a lost engine by the
+            # aircraft tier 0.1 s before this family isolated it)
+            st = next((x for x in verdict.sets if x.name == "cas"), None)
+            survivor = st is not None and len(st.weights) > 1 and \
+                sum(w > 0.0 for w in st.weights) == 1
+            shared.put(AIRSPEED_CAS, cas, t_us, FUSED, survivor=survivor)
             return
         last = self._last
         v = (last.virtual.get(VIRTUAL_CAS) if last is not None and last.available

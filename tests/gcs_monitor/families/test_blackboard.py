@@ -59,10 +59,12 @@ def test_the_yaw_rate_inputs_take_the_shared_airspeed_over_the_median() -> None:
                                                     "keeps no CAS instance)")
 
 
-def _shared_after(faults: tuple[synth.SensorFault, ...], t_from_us: int
+def _shared_after(faults: tuple[synth.SensorFault, ...], t_from_us: int,
+                  survivor: list[tuple[float, bool]] | None = None
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, set[str]]:
     """The shared airspeed, the true CAS and the median of the pitots on every air-data sample
-    from ``t_from_us`` of a 40 s calm flight through the air-data family."""
+    from ``t_from_us`` of a 40 s calm flight through the air-data family (and into
+    ``survivor``: time and flag of every shared value)."""
     run = synth.generate(synth.SynthConfig(duration_s=40.0, turb_sigma_mps=0.0, faults=faults),
                          np.random.default_rng(3))
     ctx = FamilyContext(vehicle=1, stale_after_s=0.5)
@@ -73,6 +75,8 @@ def _shared_after(faults: tuple[synth.SensorFault, ...], t_from_us: int
         p.step(fr)
         if fr.air_new:
             v = ctx.shared.get(AIRSPEED_CAS, fr.t_us, 0.5)
+            if survivor is not None and v is not None:
+                survivor.append((fr.t_us * 1e-6, v.survivor))
             if fr.t_us >= t_from_us and v is not None:
                 shared.append(v.value)
                 sources.add(v.source)
@@ -88,6 +92,20 @@ def test_a_biased_pitot_is_left_out_of_the_shared_airspeed() -> None:
     err = shared - truth
     assert len(err) == 300 and sources == {"fused"}
     assert abs(err.mean()) < 0.3 and np.abs(err).max() < 1.5  # the two healthy pitots
+
+
+def test_the_last_healthy_pitot_is_shared_marked_as_the_survivor() -> None:
+    """One pitot biased from 10 s, another from 20 s: the shared airspeed is the fusion of
+    three, then of two (not marked), then the last pitot alone, marked ``survivor`` (no vote
+    checks it: the aircraft tier does not judge the engine on it)."""
+    flags: list[tuple[float, bool]] = []
+    faults = (synth.SensorFault("cas", 1, 10.0, "bias", 12.0),
+              synth.SensorFault("cas", 2, 20.0, "bias", 12.0))
+    shared, truth, _, sources = _shared_after(faults, 25_000_000, flags)
+    err = shared - truth  # pitot 0 alone: its noise (0.5 m/s), unbiased
+    assert sources == {"fused"} and abs(err.mean()) < 0.3 and np.abs(err).max() < 2.5
+    assert not any(f for t, f in flags if t < 20.0)
+    assert all(f for t, f in flags if t > 25.0)
 
 
 def test_with_every_pitot_judged_faulty_the_airspeed_is_the_virtual_cas() -> None:
