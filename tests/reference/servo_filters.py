@@ -59,6 +59,8 @@ class ReferenceServoFilters:
         self.q_prev = math.nan
         self.d2: list[float] = []  # |second differences| of the command seen
         self.q_max = 0.0  # the largest |rod command| seen since the start
+        self.q_lim = 0.0  # |rod command| the command was seen held at (its limit)
+        self.lim_since = 0  # samples since the last interval with a sample at the limit
         self.j_hold = 0.0  # the spread of the last sample not held at the limit
         self.x_early, self.x_late = x0.copy(), x0.copy()
         if not hasattr(self, "lead_j"):  # the identified command timing survives a restart
@@ -119,9 +121,15 @@ class ReferenceServoFilters:
             kept = seen[:-2] if len(seen) > 4 else seen
             jit = 0.5 * math.sqrt(sum(x * x for x in kept) / len(seen))
             self.d2.append(d2)
-            # a command held at its largest deflection so far (clipped): not below the
-            # spread it had when it got there
+            # a command held at its largest deflection so far (clipped) is at its limit; over
+            # an interval with a sample at the limit, and while the window holds one, the
+            # spread is not below the one it had when it got there
             if qc1 == qc0 == self.q_prev and abs(qc1) >= self.q_max > 0.0:
+                self.q_lim = abs(qc1)
+            self.lim_since += 1
+            if self.q_lim > 0.0 and max(abs(qc0), abs(qc1)) >= self.q_lim:
+                self.lim_since = 0
+            if self.q_lim > 0.0 and self.lim_since < n:
                 jit = max(jit, self.j_hold)
             else:
                 self.j_hold = jit

@@ -66,7 +66,9 @@ S_DTREF = S_LK + 1
 S_LFREEZE = S_DTREF + 1  # set by the caller while the surface is in alarm: nothing learnt
 S_QMAX = S_LFREEZE + 1  # the largest |rod command| seen since the start
 S_JHOLD = S_QMAX + 1  # the unseen-command spread of the last sample not held at the limit
-N_STATE = S_JHOLD + 1
+S_QLIM = S_JHOLD + 1  # |rod command| the command was seen held at (the limit; 0: none yet)
+S_QSINCE = S_QLIM + 1  # samples since the last interval with a sample at the limit
+N_STATE = S_QSINCE + 1
 # configuration vector
 (C_GAIN, C_STROKE, C_ROD_SIG, C_SURF_SIG, C_SUBSTEP, C_QVALVE, C_QS0, C_QS1, C_QS2,
  C_FRATE, C_GATE, C_LEAD, C_STEP_NOISE, C_JIT_NOISE, C_JIT_WINDOW, C_BLEND, C_LEAD_TAU,
@@ -138,17 +140,24 @@ def unseen_spread(st, qc0, qc1, dt, cfg):
     noise covers those), a one-sample spike keeps its third.
 
     A command held at its limit: three seen samples exactly equal at the largest deflection
-    commanded so far are an autopilot's clipped demand (its limit is not in the telemetry),
-    and the unseen samples between them leave the limit whenever the demand comes back
-    inside it (a rudder banging between its limits in turbulence: the rod leaves the stop
-    between two SURF samples). Their zero second differences say nothing of those samples:
-    while the command is held, the spread does not fall below its value on the last sample
-    before (``S_JHOLD``, the fourth value returned). A command that was quiet when it got
-    there (a 3-2-1-1 plateau) keeps the spread it had, none.
+    commanded so far are an autopilot's clipped demand (its limit is not in the telemetry;
+    from then on ``S_QLIM``, the fifth value returned), and the unseen samples between them
+    leave the limit whenever the demand comes back inside it (a rudder banging between its
+    limits in turbulence: the rod leaves the stop between two SURF samples). Their zero second
+    differences say nothing of those samples: over every interval with a sample at the limit,
+    and until the jitter window has no such interval left (``S_QSINCE``, the sixth value
+    returned: samples since the last), the spread does not fall below its value on the last
+    sample before (``S_JHOLD``, the fourth value returned). Not only while three samples are
+    equal: a demand that leaves the limit for a seen sample or two and comes back has the
+    same unseen excursions, and the window's zeros and the trim leave its bounces a tenth of
+    their spread (the Wan2018 campaign's runs 42 and 111: the rod 6-12 mm inside the limit
+    the samples showed, read as valve faults of 0.05-0.13 in turbulence). A command that was
+    quiet when it got there (a 3-2-1-1 plateau) keeps the spread it had, none.
     """
     qprev = st[S_QPREV]
+    qlim = st[S_QLIM]
     if cfg[C_JIT_NOISE] == 0.0 or qprev != qprev:
-        return 0.0, -1, -1, 0.0
+        return 0.0, -1, -1, 0.0, qlim, st[S_QSINCE]
     jn = int(st[S_JN])
     jidx = int(st[S_JIDX])
     n = max(3, min(JIT_MAX, int(round(cfg[C_JIT_WINDOW] / dt))))
@@ -165,12 +174,17 @@ def unseen_spread(st, qc0, qc1, dt, cfg):
         acc += v[i] * v[i]
     spread = SPREAD_PER_RMS * math.sqrt(acc / m)
     if qc1 == qc0 and qc0 == qprev and abs(qc1) >= st[S_QMAX] > 0.0:  # held at the limit
+        qlim = abs(qc1)
+    since = st[S_QSINCE] + 1.0
+    if qlim > 0.0 and (abs(qc0) >= qlim or abs(qc1) >= qlim):  # an interval at the limit
+        since = 0.0
+    if qlim > 0.0 and since < n:  # at the limit, or its zeros still in the window
         hold = st[S_JHOLD]
         if hold > spread:
             spread = hold
     else:
         hold = spread
-    return spread, min(jn + 1, JIT_MAX), (jidx + 1) % JIT_MAX, hold
+    return spread, min(jn + 1, JIT_MAX), (jidx + 1) % JIT_MAX, hold, qlim, since
 
 
 @jit
@@ -290,7 +304,7 @@ def surface_step(st, dt, cmd_rad, y_rod, y_surf_rad, prm, cfg, out):
     qs[0] = cfg[C_QS0]
     qs[1] = cfg[C_QS1]
     qs[2] = cfg[C_QS2]
-    jitv, jn, jidx, jhold = unseen_spread(st, qc0, qc1, dt, cfg)
+    jitv, jn, jidx, jhold, qlim, qsince = unseen_spread(st, qc0, qc1, dt, cfg)
     # IOTSEKF over [x, r]
     x_bar = st[S_XBAR:S_XBAR + N].copy()
     P_bar = st[S_PBAR:S_PBAR + N * N].copy().reshape((N, N))
@@ -410,6 +424,8 @@ def surface_step(st, dt, cmd_rad, y_rod, y_surf_rad, prm, cfg, out):
     st[S_QPREV] = qc0
     st[S_QCOM] = qc1
     st[S_JHOLD] = jhold
+    st[S_QLIM] = qlim
+    st[S_QSINCE] = qsince
     if abs(qc1) > st[S_QMAX]:
         st[S_QMAX] = abs(qc1)
     for i in range(N):

@@ -259,6 +259,27 @@ def test_a_command_clipped_at_its_limit_keeps_its_unseen_spread() -> None:
     assert max(ka[25:40]) == 0.0 and max(ka[65:80]) == 0.0  # the plateaus, after each step
 
 
+def test_a_command_that_bounces_off_its_limit_keeps_its_unseen_spread() -> None:
+    """The same jittery command held at its 0.4 rad limit for 1 s, then back inside it for a
+    sample or two at a time (a rudder banging against its limit in turbulence: 0.37, 0.4,
+    0.375, 0.39, 0.4, ...): those samples have the same unseen excursions as the held ones, and
+    the window's zeros left their spread a tenth of what it was (the Wan2018 campaign's runs
+    42 and 111: false rudder input alarms there). The spread holds its value from before the
+    limit over every interval that touches the limit and until the window (0.4 s: 8 samples at
+    20 Hz) has none left; then it is the command's own again. Kernel and reference agree."""
+    rng = np.random.default_rng(4)
+    jitter = [min(0.2 + 0.1 * float(v), 0.4) for v in rng.normal(size=30)]
+    bounce = [0.37, 0.4, 0.375, 0.39, 0.4, 0.4, 0.38, 0.4]
+    inside = [0.3] * 20  # a quiet command well inside the limit
+    ka, kb = _spreads(jitter + [0.4] * 20 + bounce + inside)
+    np.testing.assert_allclose(ka, kb, rtol=1e-12, atol=1e-15)
+    at_entry = ka[len(jitter)]
+    assert at_entry > 0.0
+    n_held = len(jitter) + 20
+    assert min(ka[len(jitter) + 1:n_held + len(bounce) + 7]) >= at_entry  # bounce and window
+    assert ka[-1] < 0.1 * at_entry  # the quiet command inside the limit: its own spread
+
+
 def test_bank_equals_one_filter_per_surface() -> None:
     """The bank's one kernel call for all surfaces (``surfaces_step``, the tier's path) gives
     bit for bit the states and output rows of one :class:`ServoFilters` per surface, a fault
