@@ -12,13 +12,12 @@ in one of two forms depending on what the telemetry carries:
       aileron   p_k = b u_a s + a p + c r + d
       elevator  q_k = b u_e s + a q + c f_z + d
       rudder    r_k = b u_r s + a r + c f_y + c' p + d
-      engine    f_x,k = b lag_tau(thr) + a s + c f_z + e f_z^2 / s + d
+      engine    f_x,k = b lag_tau(thr) + a s + c f_z + d
 
   every right-hand term taken at the previous control sample k-1 (causal: see
   :meth:`AircraftTier._regression`), with ``s = (V / V_ref)^2``, ``f`` the specific force
   (FRD), ``thr`` the throttle 0..1 and ``lag_tau`` a first-order lag of it (its time constant
-  the data's choice, :meth:`AircraftTier._throttle_lag`; ``f_z^2 / s`` the induced drag and
-  the lift's share along body x, :meth:`AircraftTier._regression`);
+  the data's choice, :meth:`AircraftTier._throttle_lag`);
 * **setpoint** -- no servo outputs: the command is the attitude error the autopilot is
   correcting (NAV_CONTROLLER_OUTPUT minus ATTITUDE), a closed-loop model: roll rate against
   the bank error, pitch rate against the pitch error, yaw rate against the coordinated-turn
@@ -97,10 +96,6 @@ LAG_MIN_SAMPLES = 100
 # (the throttle in the gap is unknown; 3 time constants leave 5 % of its effect)
 LAG_SETTLE = 3.0
 ESTIMATOR = "actuators_aircraft"
-# the dynamic-pressure scale (V / V_ref)^2 is floored here where it divides (the induced-drag
-# regressor): below a fifth of the reference speed nothing is judged anyway (min_airspeed_mps)
-MIN_SCALE = 0.04
-ENGINE_INDUCED = 3  # index of the induced-drag regressor f_z^2 / s in the engine's servo form
 STOP_SHARE = 0.98  # a surface command at or beyond this share of its full deflection is at the stop
 PERIOD_REFRESH = 50  # axis steps between two re-measurements of the step period
 ESTIMATE_PERIOD_US = 100_000  # estimates (dashboard, evaluation) at most at 10 Hz
@@ -251,9 +246,6 @@ class _Axis:
     lag_models: list[_LagModel] = field(default_factory=list)
     lag_k: int = 0
     settle_us: int = -1  # after a gap the engine is not judged before this time
-    # the engine's induced-drag regressor's range over the samples its reference model learnt
-    ind_lo: float = math.inf
-    ind_hi: float = -math.inf
 
     @property
     def faulty(self) -> bool:
@@ -302,7 +294,6 @@ class _Axis:
         self.lag_models = []
         self.lag_k = 0
         self.settle_us = -1
-        self.ind_lo, self.ind_hi = math.inf, -math.inf
 
 
 class AircraftTier:
@@ -453,19 +444,9 @@ class AircraftTier:
             else:  # the throttle saturates as the energy error grows
                 e_max = self.cfg.model.max_energy_error_mps
                 cmd = max(-e_max, min(e_max, prev.energy_err_mps))
-            if ax.mode != SERVO:
-                return s.f[0], [cmd, sq, fp[2], 1.0]
-            # with the throttle, a force balance along body x: thrust, parasite drag (q),
-            # and what the angle of attack adds as the speed falls at a given load: induced
-            # drag and the lift's share along body x, both ~ n^2 / q in near-level flight
-            # (C_L ~ n / q, C_Di ~ C_L^2, alpha ~ C_L), so f_z^2 / s. Without it the model,
-            # linear in s, learnt in a deceleration, reads the drag of the slow flight that
-            # follows as thrust lost (triplex run 45, Wan2018 campaign run 165: "25 % of
-            # thrust lost" when the throttle opened again at 65-75 m/s). The setpoint form is
-            # a closed-loop model of the energy error, not a force balance: not there (on
-            # ALFA's flights it cost an engine detection and raised a false one).
-            cmd = self._throttle_lag(ax, cmd, s.t_us - prev.t_us)
-            return s.f[0], [cmd, sq, fp[2], fp[2] * fp[2] / max(sq, MIN_SCALE), 1.0]
+            if ax.mode == SERVO:
+                cmd = self._throttle_lag(ax, cmd, s.t_us - prev.t_us)
+            return s.f[0], [cmd, sq, fp[2], 1.0]
         lim = self.cfg.model.max_setpoint_error_rad
         if ax.mode == SERVO:
             cmd = prev.u_rad[i] * sq
@@ -652,8 +633,7 @@ class AircraftTier:
                                            RlsFilter(len(phi), m.initial_covariance))
                                  for k, tau in enumerate(self._lags)]
         phi_v = np.array(phi)
-        phi_p = self._within_learnt(ax, phi_v)
-        e = y - ax.ref.predict(phi_p)
+        e = y - ax.ref.predict(phi_v)
         ax.e_ref = e
         if ax.index == ENGINE and ax.mode == SERVO:
             # an engine can lose at most the thrust it was making: with the throttle known, the
@@ -669,7 +649,7 @@ class AircraftTier:
         # Soderstrom 1983, sec. 2.6; P is the parameter covariance over sigma^2). A command
         # the model has not seen (a rudder first used in an S-turn after 40 s at zero) is
         # not a fault of the surface: the model cannot predict it yet.
-        nu = e / (sigma * math.sqrt(1.0 + float(phi_p @ ax.ref.P @ phi_p)))
+        nu = e / (sigma * math.sqrt(1.0 + float(phi_v @ ax.ref.P @ phi_v)))
         ax.nu = nu
         sq = self._scale(prev)
         ax.hist.append((s.t_us, phi[0], e, sq))
@@ -700,24 +680,6 @@ class AircraftTier:
         ax.command_rad = prev.u_rad[ax.index] if ax.index != ENGINE and ax.mode == SERVO \
             else math.nan
         return ax, y, phi, phi_v, sq
-
-    @staticmethod
-    def _within_learnt(ax: _Axis, phi_v: np.ndarray) -> np.ndarray:
-        """The regressors the engine's reference model predicts from: its induced-drag term
-        ``f_z^2 / s`` held within the range the model has learnt. The term is quadratic in the
-        load: after a jammed aileron the aircraft rolls and pulls loads the model never saw,
-        and the term's extrapolation read 25 % of thrust lost (actuators_sim run 0). Inside
-        the range, what was learnt; beyond it, no more than its edge. The models learn the
-        unclipped value (their range grows in healthy flight)."""
-        if ax.index != ENGINE or ax.mode != SERVO or not ax.ind_hi >= ax.ind_lo:
-            return phi_v
-        x = float(phi_v[ENGINE_INDUCED])
-        xc = min(max(x, ax.ind_lo), ax.ind_hi)
-        if xc == x:
-            return phi_v
-        out = phi_v.copy()
-        out[ENGINE_INDUCED] = xc
-        return out
 
     def _at_stop(self, ax: _Axis, prev: Signals) -> bool:
         """The surface's servo-output command (the one acting) is at its end stop (NaN: no)."""
@@ -838,9 +800,6 @@ class AircraftTier:
                                                     m.sigma_memory_s, m.huber_c)
             if len(ax.lag_models) > 1:
                 self._learn_lags(ax, y, phi, dt, lam, w)
-            if ax.index == ENGINE and ax.mode == SERVO:
-                x = phi[ENGINE_INDUCED]
-                ax.ind_lo, ax.ind_hi = min(ax.ind_lo, x), max(ax.ind_hi, x)
 
         b_ref = float(ax.ref.theta[0])
         ax.effectiveness = 1.0 + float(ax.trk.theta[0]) / b_ref if abs(b_ref) > 1e-9 \

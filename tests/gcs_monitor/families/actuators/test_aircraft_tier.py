@@ -339,51 +339,6 @@ def test_a_change_of_airspeed_source_restarts_the_models():
     assert statuses[-1][1].judged  # judged again after the warm-up
 
 
-def _slow_flight_frames(seed: int = 0):
-    """An engine through a deceleration and the throttle-up that follows, with the drag of
-    near-level flight: f_x = 2 thrust - (0.6 s + 0.4 n^2 / s) with s = (V / 25 m/s)^2 and the
-    load n = 1 (parasite drag ~ q, induced drag and the lift's share along body x ~ n^2 / q).
-    30 s at 25 m/s and throttle 0.5 with small steps, 25 s of deceleration to 17 m/s with the
-    throttle falling to 0.1, then the throttle opens to 0.8 at 17 m/s: the throttle and the
-    speed fell together, so a drag model linear in s learnt there mispredicts the slow flight
-    at a throttle it has not seen."""
-    rng = np.random.default_rng(seed)
-    thrust = 0.5
-    for k in range(round(75.0 / DT)):
-        t = k * DT
-        t_us = round(t * 1e6)
-        if t < 30.0:
-            v, thr = 25.0, 0.5 + (0.05 if int(t / 3.0) % 2 else -0.05)
-        elif t < 55.0:
-            x = (t - 30.0) / 25.0
-            v, thr = 25.0 - 8.0 * x, 0.5 - 0.4 * x
-        else:
-            v, thr = 17.0, min(0.8, 0.1 + 0.35 * (t - 55.0))
-        s = (v / 25.0) ** 2
-        thrust = thr  # no lag: the lag search is another test's
-        fz = -9.81 * (1.0 + 0.01 * rng.standard_normal())
-        fx = 2.0 * thrust - (0.6 * s + 0.4 * (fz / 9.81) ** 2 / s) + 0.01 * rng.standard_normal()
-        w = 0.002 * rng.standard_normal(3)
-        pwm = (1500.0, 1500.0, 1500.0, 1000.0 + 1000.0 * thr) + (math.nan,) * 12
-        yield Frame(t_us, [ImuSample(t_us, 0, np.array([fx, 0.0, fz]), w)],
-                    euler_rad=np.zeros(3), att_age_s=0.0, att_rate_frd_radps=w,
-                    servo=ServoOutputs(t_us, pwm, tuple((x - 1500) / 500 for x in pwm)),
-                    servo_age_s=0.0, hud=HudSample(t_us, v, v, 0.0, thr), hud_age_s=0.0)
-
-
-def test_the_drag_of_slow_flight_is_not_a_lost_engine():
-    """Induced drag grows as the speed falls (~ n^2 / q): the engine model regresses on
-    f_z^2 / s beside s, so the throttle-up after a deceleration is predicted (triplex run 45
-    and Wan2018 run 165 raised "25 % of thrust lost" there). The engine is judged throughout
-    the slow flight and raises nothing; its residual stays at the noise."""
-    tier = _tier()
-    events, statuses = _run(tier, _slow_flight_frames())
-    assert not [e for e in events if e.kind is AlarmKind.ACTUATOR_FAULT]
-    eng = tier.axes[3]
-    assert eng.res is not None and eng.res.J < 0.5 * eng.res.cfg.threshold
-    assert all(st.judged for st in statuses[-500:] if st.sample)
-
-
 def test_the_engine_is_not_judged_on_an_airspeed_that_drifts():
     """The air-data family shares the last healthy pitot of its set (``survivor``), which then
     runs away at -1 m/s^2: the engine model's drag term would follow it (Wan2018 run 153).
