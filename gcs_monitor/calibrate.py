@@ -27,9 +27,19 @@ constant model valid only near the speeds flown: the family judges only inside t
 design and the calibration says which input was missing.
 
 It prints, per flight, the largest J against the new J_th (the margin each flight keeps) and
-writes a TOML file with only what it changed, which ``replay`` and ``live`` accept
-(``--config``). Flights: any log the monitor reads (``.tlog``, ArduPilot ``.bin``/``.log``, PX4
-``.ulg``, the CSV layouts).
+when it came, and writes a TOML file with only what it changed, which ``replay`` and ``live``
+accept (``--config``). Flights: any log the monitor reads (``.tlog``, ArduPilot ``.bin``/``.log``,
+PX4 ``.ulg``, the CSV layouts).
+
+A flight that is not fault-free all through (a crash, a hard landing, a sensor that failed)
+sets J_th from its worst moment and blinds the monitor: a real ArduCopter log of the data folder
+crashes 51.6 s in (its own ``ERR`` record) and alone gives a gyro J_th of 65 deg/s. The largest
+J of such a moment stands far above the rest of its flight, so each flight's largest J is
+compared with its 95th percentile: beyond :data:`SPIKE_RATIO` times, ``calibrate`` says which
+flight, key and time, and that the part can be left out. ``PATH@T0:T1`` calibrates on the
+vehicle times T0..T1 s of a flight only (either bound may be left out: ``log.bin@60:``); the
+whole flight is still replayed (the estimators need its history), only the samples outside are
+not learnt from.
 """
 
 from __future__ import annotations
@@ -55,6 +65,12 @@ from gcs_monitor.telemetry.frame import Frame
 
 MAD_SIGMA = 0.6745  # MAD of a Gaussian / its sigma
 OUT_OF_REACH = 1.0e9  # J_th that nothing reaches (detection off while observing)
+# a flight's largest J beyond this many times its 95th percentile is a moment, not the flight's
+# residual floor (module docstring): calibrate names it. On clean flights (the simulator's demo
+# and Lu2016 turbulence flights, two Zipline launches, the OnSpeed stall run) the ratio is
+# 1.0-2.0; on the two ArduCopter logs that end in or contain a crash the gyro's is 4.2 and 12.6
+SPIKE_RATIO = 3.0
+SPIKE_PERCENTILE = 95.0
 IMU_SETS = ("ts", "hosm")
 IMU_ESTIMATORS = {"imu_ts": "ts", "imu_ts_as": "ts", "imu_hosm": "hosm"}  # estimator -> section
 YAW_RATE_ESTIMATOR = "yaw_rate_smo"
@@ -72,6 +88,56 @@ class _Noise:
     cas_pair: list[np.ndarray] = field(default_factory=list)
 
 
+@dataclass(frozen=True)
+class FlightPart:
+    """A flight, or the part of it (vehicle time ``t0_s``..``t1_s``) calibrate learns from."""
+
+    path: Path
+    t0_s: float = -math.inf
+    t1_s: float = math.inf
+
+    @property
+    def windowed(self) -> bool:
+        return self.t0_s > -math.inf or self.t1_s < math.inf
+
+    @property
+    def name(self) -> str:
+        if not self.windowed:
+            return self.path.name
+        lo = "" if self.t0_s == -math.inf else f"{self.t0_s:g}"
+        hi = "" if self.t1_s == math.inf else f"{self.t1_s:g}"
+        return f"{self.path.name}@{lo}:{hi}"
+
+    def covers(self, t_us: int) -> bool:
+        return self.t0_s <= t_us * 1e-6 <= self.t1_s
+
+
+def parse_flight(text: str | Path) -> FlightPart:
+    """``PATH`` or ``PATH@T0:T1`` (vehicle time, s; either bound may be left out).
+
+    Raises
+    ------
+    ValueError
+        on a window that is not two numbers with T0 < T1
+    """
+    text = str(text)
+    path, at, window = text.rpartition("@")
+    if not at or Path(text).exists():
+        return FlightPart(Path(text))
+    lo, colon, hi = window.partition(":")
+    try:
+        if not colon:
+            raise ValueError
+        t0 = float(lo) if lo.strip() else -math.inf
+        t1 = float(hi) if hi.strip() else math.inf
+    except ValueError:
+        raise ValueError(f"{text}: expected PATH@T0:T1 (vehicle time in s, e.g. "
+                         f"{path}@60:190 or {path}@:190)") from None
+    if not t0 < t1:
+        raise ValueError(f"{text}: the window's start {t0:g} s is not before its end {t1:g} s")
+    return FlightPart(Path(path), t0, t1)
+
+
 @dataclass
 class FlightStats:
     """What one flight contributed."""
@@ -79,6 +145,14 @@ class FlightStats:
     name: str
     duration_s: float
     j_max: dict[str, float] = field(default_factory=dict)  # key -> largest J (SI)
+    j_at_s: dict[str, float] = field(default_factory=dict)  # key -> vehicle time of it (s)
+    j_p95: dict[str, float] = field(default_factory=dict)  # key -> 95th percentile of J
+
+    def spikes(self) -> dict[str, float]:
+        """Keys whose largest J is an isolated moment (> SPIKE_RATIO x the flight's
+        SPIKE_PERCENTILE-th percentile): key -> that ratio."""
+        return {k: j / self.j_p95[k] for k, j in self.j_max.items()
+                if self.j_p95.get(k, 0.0) > 0.0 and j > SPIKE_RATIO * self.j_p95[k]}
 
 
 @dataclass(frozen=True)
@@ -260,14 +334,18 @@ def _observing(cfg: MonitorConfig) -> MonitorConfig:
 
 
 class _JRecorder:
-    """The largest residual RMS per set and per IMU estimator and kind."""
+    """The residual RMS per set and per IMU estimator and kind: per frame the largest over the
+    key's channels, and the largest of the flight with its vehicle time."""
 
     def __init__(self) -> None:
         self.j: dict[str, float] = {}
+        self.t_s: dict[str, float] = {}
+        self.series: dict[str, list[float]] = {}
+        self._frame: dict[str, float] = {}
 
     def _put(self, key: str, j: float) -> None:
-        if math.isfinite(j) and j > self.j.get(key, -1.0):
-            self.j[key] = j
+        if math.isfinite(j) and j > self._frame.get(key, -1.0):
+            self._frame[key] = j
 
     def __call__(self, sysid: int, frame: Frame, out: StepOutput) -> None:
         for s in out.sets:
@@ -280,6 +358,15 @@ class _JRecorder:
                 self._put(f"yaw_rate.{c.channel.axis}", c.rms)
             elif c.estimator in IMU_ESTIMATORS:
                 self._put(f"imu.{IMU_ESTIMATORS[c.estimator]}.{c.channel.kind}", c.rms)
+        for key, j in self._frame.items():
+            self.series.setdefault(key, []).append(j)
+            if j > self.j.get(key, -1.0):
+                self.j[key] = j
+                self.t_s[key] = frame.t_us * 1e-6
+        self._frame.clear()
+
+    def percentile(self, q: float) -> dict[str, float]:
+        return {k: float(np.percentile(v, q)) for k, v in self.series.items() if v}
 
 
 def identify_yaw_rate(lateral: LateralRecorder, design_path: Path, *,
@@ -315,28 +402,42 @@ def identify_yaw_rate(lateral: LateralRecorder, design_path: Path, *,
                         {k: float(v["gamma"]) for k, v in design.meta["lmi"].items()})
 
 
-def calibrate(flights: Sequence[Path], base: MonitorConfig | None = None, *,
+def _within(part: FlightPart, rec: Callable[[int, Frame, StepOutput], None]
+            ) -> Callable[[int, Frame, StepOutput], None]:
+    """``rec`` for the frames of ``part``'s window only."""
+    if not part.windowed:
+        return rec
+
+    def step(sysid: int, frame: Frame, out: StepOutput) -> None:
+        if part.covers(frame.t_us):
+            rec(sysid, frame, out)
+    return step
+
+
+def calibrate(flights: Sequence[Path | FlightPart], base: MonitorConfig | None = None, *,
               margin: float = 1.5, design_path: Path | None = None,
               progress: Callable[[str], None] = lambda s: None) -> Calibration:
-    """Noise model and thresholds from fault-free ``flights`` (module docstring).
+    """Noise model and thresholds from fault-free ``flights`` (module docstring), each a path
+    or a :class:`FlightPart` (learn from a window of it only).
 
     ``design_path``: where to write the yaw-rate family's identified design (JSON); None: the
     lateral model is not identified and the family keeps the design of ``base``.
     """
     if not flights:
         raise ValueError("calibrate needs at least one flight")
+    parts = [f if isinstance(f, FlightPart) else FlightPart(Path(f)) for f in flights]
     if not margin > 1.0:
         raise ValueError(f"margin must be > 1, got {margin}")
     cfg = base if base is not None else MonitorConfig()
     samples = _Noise()
     stats: list[FlightStats] = []
     lateral = LateralRecorder()
-    for i, path in enumerate(flights):
-        progress(f"[1/2] noise {i + 1}/{len(flights)}: {path.name}")
+    for i, part in enumerate(parts):
+        progress(f"[1/2] noise {i + 1}/{len(parts)}: {part.name}")
         rec = _NoiseRecorder(lateral)
-        dur = _replay(path, _observing(cfg), rec)
+        dur = _replay(part.path, _observing(cfg), _within(part, rec))
         rec.into(samples)
-        stats.append(FlightStats(path.name, dur))
+        stats.append(FlightStats(part.name, dur))
     noise = {
         "acc": _mad_sigma(samples.acc, math.sqrt(2.0)),
         "gyro": _mad_sigma(samples.gyro, math.sqrt(2.0)),
@@ -352,15 +453,17 @@ def calibrate(flights: Sequence[Path], base: MonitorConfig | None = None, *,
     elif design_path is not None:
         progress("[1/2] yaw-rate lateral model and observer design")
         yaw = identify_yaw_rate(lateral, design_path, command="gcs-monitor calibrate "
-                                + " ".join(p.name for p in flights))
+                                + " ".join(p.name for p in parts))
         if yaw.design_path is not None:  # absolute: replay and live run from anywhere
             noisy = noisy.with_family("yaw_rate", design=str(yaw.design_path.resolve()))
     observe = _observing(noisy)
-    for i, path in enumerate(flights):
-        progress(f"[2/2] residuals {i + 1}/{len(flights)}: {path.name}")
+    for i, part in enumerate(parts):
+        progress(f"[2/2] residuals {i + 1}/{len(parts)}: {part.name}")
         jr = _JRecorder()
-        _replay(path, observe, jr)
+        _replay(part.path, observe, _within(part, jr))
         stats[i].j_max = jr.j
+        stats[i].j_at_s = jr.t_s
+        stats[i].j_p95 = jr.percentile(SPIKE_PERCENTILE)
     j_all: dict[str, float] = {}
     for st in stats:
         for k, v in st.j_max.items():
@@ -397,7 +500,8 @@ def _with_thresholds(cfg: MonitorConfig, th: dict[str, float]) -> MonitorConfig:
     return cfg
 
 
-def calibration_toml(cal: Calibration, base: MonitorConfig, flights: Sequence[Path]) -> str:
+def calibration_toml(cal: Calibration, base: MonitorConfig,
+                     flights: Sequence[Path | FlightPart]) -> str:
     """The calibrated configuration as TOML: only the keys it changed against ``base``, with a
     header saying where they came from (``load_config(path, base=...)`` restores the rest)."""
     lines = [f"# gcs-monitor calibrate on {len(flights)} fault-free flight(s), margin "
@@ -415,7 +519,8 @@ def calibration_toml(cal: Calibration, base: MonitorConfig, flights: Sequence[Pa
 
 
 def margins_table(cal: Calibration) -> list[str]:
-    """Per flight and key: the largest J and its share of the new J_th (the margin kept)."""
+    """Per flight and key: the largest J as a share of the new J_th (the margin kept) and its
+    vehicle time."""
     keys = sorted(cal.thresholds)
     lines = ["| flight | duration s | " + " | ".join(keys) + " |",
              "|---|---|" + "---|" * len(keys)]
@@ -423,6 +528,28 @@ def margins_table(cal: Calibration) -> list[str]:
         cells = []
         for k in keys:
             j = st.j_max.get(k)
-            cells.append("-" if j is None else f"{j / cal.thresholds[k]:.2f}")
+            at = st.j_at_s.get(k)
+            cells.append("-" if j is None else f"{j / cal.thresholds[k]:.2f}"
+                         + ("" if at is None else f" at {at:.1f} s"))
         lines.append(f"| {st.name} | {st.duration_s:.0f} | " + " | ".join(cells) + " |")
     return lines
+
+
+def spike_warnings(cal: Calibration) -> list[str]:
+    """What ``calibrate`` says about flights whose largest J is one moment far above the rest of
+    the flight (:meth:`FlightStats.spikes`): the flight, the key, when, and what it did to the
+    threshold; empty when there is none."""
+    out = []
+    for st in cal.flights:
+        for key, ratio in sorted(st.spikes().items()):
+            th = cal.thresholds.get(key)
+            sets = th is not None and st.j_max[key] * cal.margin >= th
+            out.append(
+                f"warning: {st.name}: the largest {key} J ({st.j_max[key]:.4g}, at "
+                f"{st.j_at_s[key]:.1f} s) is {ratio:.1f} x the flight's "
+                f"{SPIKE_PERCENTILE:g}th percentile ({st.j_p95[key]:.4g})"
+                + (": it sets that J_th" if sets else "")
+                + ". A crash, a hard landing or a failing sensor there makes the threshold "
+                "blind to faults; if the flight was not fault-free at that moment, calibrate "
+                "on the rest of it (FLIGHT@T0:T1, vehicle time in s)")
+    return out

@@ -719,16 +719,27 @@ def cmd_config(args: argparse.Namespace) -> int:
 
 
 def cmd_calibrate(args: argparse.Namespace) -> int:
-    from gcs_monitor.calibrate import calibrate, calibration_toml, margins_table
+    from gcs_monitor.calibrate import (
+        calibrate,
+        calibration_toml,
+        margins_table,
+        parse_flight,
+        spike_warnings,
+    )
 
     base = load_config(args.config)
-    missing = [p for p in args.flights if not p.is_file()]
+    try:
+        flights = [parse_flight(f) for f in args.flights]
+    except ValueError as e:
+        print(f"gcs-monitor calibrate: {e}", file=sys.stderr)
+        return 2
+    missing = [f.path for f in flights if not f.path.is_file()]
     if missing:
         print(f"gcs-monitor calibrate: no such file: {', '.join(map(str, missing))}",
               file=sys.stderr)
         return 2
     design = args.out.parent / f"{args.out.stem}.yaw_rate.json"  # the yaw-rate design
-    cal = calibrate(args.flights, base, margin=args.margin, design_path=design,
+    cal = calibrate(flights, base, margin=args.margin, design_path=design,
                     progress=lambda m: print(m, file=sys.stderr, flush=True))
     print("noise model (1 sigma, SI): " + ", ".join(
         f"{k} {v:.3g}" for k, v in cal.noise.items() if math.isfinite(v)))
@@ -737,15 +748,21 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         print(line)
     print("thresholds J_th (SI): " + ", ".join(f"{k} {v:.4g}" for k, v in
                                                sorted(cal.thresholds.items())))
-    print("\nlargest J of each flight as a share of the new J_th (1 / margin at the worst):")
+    print("\nlargest J of each flight as a share of the new J_th (1 / margin at the worst), "
+          "and when (vehicle time):")
     for line in margins_table(cal):
         print(line)
+    warnings = spike_warnings(cal)
+    if warnings:
+        print()
+        for line in warnings:
+            print(line)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     if cal.yaw_rate.design_path is not None:  # written beside the TOML, named relative to it
         cal = dataclasses.replace(cal, config=cal.config.with_family(
             "yaw_rate", design=os.path.relpath(cal.yaw_rate.design_path.resolve(),
                                                args.out.parent.resolve())))
-    args.out.write_text(calibration_toml(cal, base, args.flights))
+    args.out.write_text(calibration_toml(cal, base, flights))
     print(f"\nwrote {args.out} (use it with --config)")
     return 0
 
@@ -897,8 +914,9 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("calibrate", help="noise model, thresholds and the yaw-rate family's "
                                          "lateral model from your own fault-free flights; "
                                          "writes a config replay and live accept")
-    s.add_argument("flights", nargs="+", type=Path, help=".tlog files or CSV layouts that "
-                   "`convert` reads, known to be fault-free")
+    s.add_argument("flights", nargs="+", help="flight logs replay reads (.tlog, .bin, .ulg, "
+                   "the CSV layouts), known to be fault-free; FLIGHT@T0:T1 learns from its "
+                   "vehicle times T0..T1 s only (either bound may be left out)")
     s.add_argument("--out", type=Path, default=Path("airframe.toml"),
                    help="config to write; the yaw-rate design goes next to it (OUT.yaw_rate.json)")
     s.add_argument("--config", type=Path, help="start from this config instead of the defaults")

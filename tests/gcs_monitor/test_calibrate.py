@@ -15,7 +15,16 @@ from pathlib import Path
 
 import pytest
 
-from gcs_monitor.calibrate import calibrate, calibration_toml
+from gcs_monitor.calibrate import (
+    Calibration,
+    FlightPart,
+    FlightStats,
+    calibrate,
+    calibration_toml,
+    margins_table,
+    parse_flight,
+    spike_warnings,
+)
 from gcs_monitor.cli import main
 from gcs_monitor.config import MonitorConfig, load_config
 from gcs_monitor.core.units import DEG2RAD
@@ -168,3 +177,67 @@ def test_bad_input() -> None:
         calibrate([])
     with pytest.raises(ValueError, match="margin"):
         calibrate([Path("x.tlog")], margin=1.0)
+
+
+def test_flight_windows_parse() -> None:
+    assert parse_flight("a.tlog") == FlightPart(Path("a.tlog"))
+    assert parse_flight("logs/a.bin@60:190") == FlightPart(Path("logs/a.bin"), 60.0, 190.0)
+    part = parse_flight("a.bin@:190.5")
+    assert (part.t0_s, part.t1_s) == (-math.inf, 190.5)
+    assert part.name == "a.bin@:190.5"
+    assert parse_flight("a.bin@60:").name == "a.bin@60:"
+    assert not parse_flight("a.bin").windowed and parse_flight("a.bin@60:").windowed
+    assert parse_flight("a.bin@60:").covers(61_000_000)
+    assert not parse_flight("a.bin@60:").covers(59_999_999)
+    for bad, why in (("a.bin@60", "expected PATH@T0:T1"), ("a.bin@x:3", "expected PATH@T0:T1"),
+                     ("a.bin@90:60", "not before its end")):
+        with pytest.raises(ValueError, match=why):
+            parse_flight(bad)
+
+
+def test_a_file_whose_name_has_an_at_sign_is_a_flight(tmp_path: Path) -> None:
+    f = tmp_path / "run@1:2.tlog"
+    f.write_bytes(b"")
+    assert parse_flight(str(f)) == FlightPart(f)
+
+
+def test_a_window_learns_from_its_part_of_the_flight_only(flights: list[Path]) -> None:
+    whole = calibrate(flights[:1]).flights[0]
+    part = calibrate([FlightPart(flights[0], 12.0, 16.0)]).flights[0]
+    assert part.name == f"{flights[0].name}@12:16"
+    for key, t in part.j_at_s.items():
+        assert 12.0 <= t <= 16.0, key
+        # the window's largest J is the whole flight's largest within it, not above it
+        assert part.j_max[key] <= whole.j_max[key] * (1.0 + 1e-12)
+        assert 0.0 < part.j_p95[key] <= part.j_max[key]
+    assert part.j_at_s.keys() == whole.j_at_s.keys()
+
+
+def test_a_moment_far_above_the_rest_of_its_flight_is_named() -> None:
+    st = FlightStats("crash.bin", 300.0, j_max={"imu.ts.gyro": 0.76, "imu.ts.acc": 4.9},
+                     j_at_s={"imu.ts.gyro": 52.3, "imu.ts.acc": 50.9},
+                     j_p95={"imu.ts.gyro": 0.06, "imu.ts.acc": 2.1})
+    assert st.spikes() == {"imu.ts.gyro": pytest.approx(0.76 / 0.06)}  # acc: 2.3 x, a floor
+    cal = Calibration(MonitorConfig(), {}, {"imu.ts.gyro": 1.5 * 0.76, "imu.ts.acc": 1.5 * 4.9},
+                      [st], 1.5)
+    (line,) = spike_warnings(cal)
+    assert line.startswith("warning: crash.bin: the largest imu.ts.gyro J (0.76, at 52.3 s) is "
+                           "12.7 x the flight's 95th percentile (0.06): it sets that J_th.")
+    assert "FLIGHT@T0:T1" in line
+    assert "| crash.bin | 300 | 0.67 at 50.9 s | 0.67 at 52.3 s |" in margins_table(cal)
+
+
+def test_cli_takes_a_window_and_says_when_each_largest_j_came(flights: list[Path],
+                                                              tmp_path: Path) -> None:
+    out = tmp_path / "airframe.toml"
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        assert main(["calibrate", f"{flights[0]}@5:", "--out", str(out)]) == 0
+    printed = buf.getvalue()
+    assert f"| {flights[0].name}@5: | 20 |" in printed
+    assert re.search(r"\| 0\.67 at ([0-9.]+) s \|", printed)
+    assert f"#   {flights[0].name}@5:" in out.read_text()
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err):
+        assert main(["calibrate", f"{flights[0]}@9:5", "--out", str(out)]) == 2
+    assert "not before its end" in err.getvalue()
