@@ -519,8 +519,8 @@ def calibration_toml(cal: Calibration, base: MonitorConfig,
 
 
 def margins_table(cal: Calibration) -> list[str]:
-    """Per flight and key: the largest J as a share of the new J_th (the margin kept) and its
-    vehicle time."""
+    """Per flight and key: the largest J as a share of the new J_th (the margin kept), its
+    vehicle time, and the flight's 95th percentile of J as a share of J_th (its floor)."""
     keys = sorted(cal.thresholds)
     lines = ["| flight | duration s | " + " | ".join(keys) + " |",
              "|---|---|" + "---|" * len(keys)]
@@ -529,8 +529,10 @@ def margins_table(cal: Calibration) -> list[str]:
         for k in keys:
             j = st.j_max.get(k)
             at = st.j_at_s.get(k)
+            p95 = st.j_p95.get(k)
             cells.append("-" if j is None else f"{j / cal.thresholds[k]:.2f}"
-                         + ("" if at is None else f" at {at:.1f} s"))
+                         + ("" if at is None else f" at {at:.1f} s")
+                         + ("" if p95 is None else f" (p95 {p95 / cal.thresholds[k]:.2f})"))
         lines.append(f"| {st.name} | {st.duration_s:.0f} | " + " | ".join(cells) + " |")
     return lines
 

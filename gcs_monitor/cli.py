@@ -749,7 +749,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     print("thresholds J_th (SI): " + ", ".join(f"{k} {v:.4g}" for k, v in
                                                sorted(cal.thresholds.items())))
     print("\nlargest J of each flight as a share of the new J_th (1 / margin at the worst), "
-          "and when (vehicle time):")
+          "when (vehicle time), and the flight's 95th percentile of J (p95) as a share of it:")
     for line in margins_table(cal):
         print(line)
     warnings = spike_warnings(cal)

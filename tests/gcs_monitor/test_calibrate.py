@@ -224,7 +224,8 @@ def test_a_moment_far_above_the_rest_of_its_flight_is_named() -> None:
     assert line.startswith("warning: crash.bin: the largest imu.ts.gyro J (0.76, at 52.3 s) is "
                            "12.7 x the flight's 95th percentile (0.06): it sets that J_th.")
     assert "FLIGHT@T0:T1" in line
-    assert "| crash.bin | 300 | 0.67 at 50.9 s | 0.67 at 52.3 s |" in margins_table(cal)
+    assert ("| crash.bin | 300 | 0.67 at 50.9 s (p95 0.29) | 0.67 at 52.3 s (p95 0.05) |"
+            in margins_table(cal))
 
 
 def test_cli_takes_a_window_and_says_when_each_largest_j_came(flights: list[Path],
@@ -235,7 +236,7 @@ def test_cli_takes_a_window_and_says_when_each_largest_j_came(flights: list[Path
         assert main(["calibrate", f"{flights[0]}@5:", "--out", str(out)]) == 0
     printed = buf.getvalue()
     assert f"| {flights[0].name}@5: | 20 |" in printed
-    assert re.search(r"\| 0\.67 at ([0-9.]+) s \|", printed)
+    assert re.search(r"\| 0\.67 at ([0-9.]+) s \(p95 0\.[0-9]{2}\) \|", printed)
     assert f"#   {flights[0].name}@5:" in out.read_text()
     err = io.StringIO()
     with contextlib.redirect_stderr(err):
