@@ -335,12 +335,10 @@ def _observing(cfg: MonitorConfig) -> MonitorConfig:
 
 class _JRecorder:
     """The residual RMS per set and per IMU estimator and kind: per frame the largest over the
-    key's channels, and the largest of the flight with its vehicle time."""
+    key's channels, with the frame's vehicle time."""
 
     def __init__(self) -> None:
-        self.j: dict[str, float] = {}
-        self.t_s: dict[str, float] = {}
-        self.series: dict[str, list[float]] = {}
+        self.series: dict[str, tuple[list[float], list[float]]] = {}  # key -> (t_s, J)
         self._frame: dict[str, float] = {}
 
     def _put(self, key: str, j: float) -> None:
@@ -359,14 +357,18 @@ class _JRecorder:
             elif c.estimator in IMU_ESTIMATORS:
                 self._put(f"imu.{IMU_ESTIMATORS[c.estimator]}.{c.channel.kind}", c.rms)
         for key, j in self._frame.items():
-            self.series.setdefault(key, []).append(j)
-            if j > self.j.get(key, -1.0):
-                self.j[key] = j
-                self.t_s[key] = frame.t_us * 1e-6
+            ts, js = self.series.setdefault(key, ([], []))
+            ts.append(frame.t_us * 1e-6)
+            js.append(j)
         self._frame.clear()
 
-    def percentile(self, q: float) -> dict[str, float]:
-        return {k: float(np.percentile(v, q)) for k, v in self.series.items() if v}
+    def into(self, st: FlightStats) -> None:
+        """The flight's largest J per key, its vehicle time and the SPIKE_PERCENTILE-th
+        percentile of J into ``st``."""
+        for key, (ts, js) in self.series.items():
+            k = int(np.argmax(js))  # the first of equal maxima
+            st.j_max[key], st.j_at_s[key] = js[k], ts[k]
+            st.j_p95[key] = float(np.percentile(js, SPIKE_PERCENTILE))
 
 
 def identify_yaw_rate(lateral: LateralRecorder, design_path: Path, *,
@@ -461,9 +463,7 @@ def calibrate(flights: Sequence[Path | FlightPart], base: MonitorConfig | None =
         progress(f"[2/2] residuals {i + 1}/{len(parts)}: {part.name}")
         jr = _JRecorder()
         _replay(part.path, observe, _within(part, jr))
-        stats[i].j_max = jr.j
-        stats[i].j_at_s = jr.t_s
-        stats[i].j_p95 = jr.percentile(SPIKE_PERCENTILE)
+        jr.into(stats[i])
     j_all: dict[str, float] = {}
     for st in stats:
         for k, v in st.j_max.items():
