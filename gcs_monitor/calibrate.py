@@ -47,6 +47,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+from array import array
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -338,7 +339,8 @@ class _JRecorder:
     key's channels, with the frame's vehicle time."""
 
     def __init__(self) -> None:
-        self.series: dict[str, tuple[list[float], list[float]]] = {}  # key -> (t_s, J)
+        # key -> (t_s, J), packed doubles: a flight of an hour at 100 Hz is 360k frames per key
+        self.series: dict[str, tuple[array[float], array[float]]] = {}
         self._frame: dict[str, float] = {}
 
     def _put(self, key: str, j: float) -> None:
@@ -357,7 +359,7 @@ class _JRecorder:
             elif c.estimator in IMU_ESTIMATORS:
                 self._put(f"imu.{IMU_ESTIMATORS[c.estimator]}.{c.channel.kind}", c.rms)
         for key, j in self._frame.items():
-            ts, js = self.series.setdefault(key, ([], []))
+            ts, js = self.series.setdefault(key, (array("d"), array("d")))
             ts.append(frame.t_us * 1e-6)
             js.append(j)
         self._frame.clear()
@@ -366,9 +368,10 @@ class _JRecorder:
         """The flight's largest J per key, its vehicle time and the SPIKE_PERCENTILE-th
         percentile of J into ``st``."""
         for key, (ts, js) in self.series.items():
-            k = int(np.argmax(js))  # the first of equal maxima
+            j = np.frombuffer(js, dtype=np.float64)
+            k = int(np.argmax(j))  # the first of equal maxima
             st.j_max[key], st.j_at_s[key] = js[k], ts[k]
-            st.j_p95[key] = float(np.percentile(js, SPIKE_PERCENTILE))
+            st.j_p95[key] = float(np.percentile(j, SPIKE_PERCENTILE))
 
 
 def identify_yaw_rate(lateral: LateralRecorder, design_path: Path, *,
