@@ -100,6 +100,7 @@ from gcs_monitor.telemetry.frame import (
     ImuSample,
     NavOutput,
     ServoOutputs,
+    new_imu_sample,
 )
 from gcs_monitor.telemetry.period import SamplePeriod
 from gcs_monitor.telemetry.samples import (
@@ -516,7 +517,7 @@ class FrameAssembler:
             sample = self._imu[inst]
         else:
             v6 = np.array(vals)  # one allocation, two views
-            sample = ImuSample(t_us, inst, v6[:3], v6[3:])
+            sample = new_imu_sample(t_us, inst, v6[:3], v6[3:])
             self._imu[inst] = sample
             self._imu_vals[inst] = vals
         self._imu_t[inst] = t_us  # later than this instance's last: the line only advances

@@ -120,3 +120,17 @@ def test_chord_is_bit_identical_to_the_numpy_formulation():
         dv, mean = _chord_numpy(t, acc, t0, t1)
         assert np.array(ch.dv).tobytes() == dv.tobytes()
         assert np.array(ch.mean_acc).tobytes() == mean.tobytes()
+
+
+def test_fast_constructors_build_the_same_objects():
+    from gcs_monitor.telemetry.frame import ImuSample, new_imu_sample
+    from gcs_monitor.telemetry.samples import GpsQuery, _query
+
+    a, w = np.array([1.0, 2.0, 3.0]), np.array([0.1, 0.2, 0.3])
+    s = new_imu_sample(5, 1, a, w)
+    assert type(s) is ImuSample and s == ImuSample(5, 1, a, w) and repr(s) == repr(
+        ImuSample(5, 1, a, w))
+    assert s.acc_frd_mps2 is a and s.omega_frd_radps is w
+    q = _query(a, 0.5, RING[0], True, RING[1])
+    assert type(q) is GpsQuery and repr(q) == repr(GpsQuery(a, 0.5, RING[0], True, RING[1]))
+    assert _query(None, math.inf, None, False, None) == GpsQuery(None, math.inf, None, False)
