@@ -90,7 +90,6 @@ from typing import Any
 
 import numpy as np
 
-from gcs_monitor.core.frames import dcm_ned_frd
 from gcs_monitor.link.mav import mavlink
 from gcs_monitor.link.stats import LinkStats
 from gcs_monitor.telemetry import contract as ct
@@ -101,6 +100,7 @@ from gcs_monitor.telemetry.frame import (
     ImuSample,
     NavOutput,
     ServoOutputs,
+    new_imu_sample,
 )
 from gcs_monitor.telemetry.period import SamplePeriod
 from gcs_monitor.telemetry.samples import (
@@ -141,6 +141,18 @@ _SCALED_INSTANCE = {M.MAVLINK_MSG_ID_SCALED_IMU: 0, M.MAVLINK_MSG_ID_SCALED_IMU2
 # NAMED_VALUE_FLOAT names as pymavlink delivers them (bytes, NULs stripped) -> _name() of them
 _AOA_NAMES = {b"AOA1": "AOA1", b"AOA2": "AOA2", "AOA1": "AOA1", "AOA2": "AOA2"}
 _SURF_NAMES = frozenset({b"SURF", "SURF"})
+
+
+def _dcm_ned_frd_flat(phi: float, theta: float, psi: float) -> tuple[float, ...]:
+    """:func:`~gcs_monitor.core.frames.dcm_ned_frd` as a flat row-major 9-tuple of Python floats,
+    with its very expressions (bit-identical, tests/gcs_monitor/telemetry/test_interp_error.py):
+    many of them stack into one array, where one small array each cost more than the maths."""
+    sph, cph = math.sin(phi), math.cos(phi)
+    sth, cth = math.sin(theta), math.cos(theta)
+    sps, cps = math.sin(psi), math.cos(psi)
+    return (cth * cps, sph * sth * cps - cph * sps, cph * sth * cps + sph * sps,
+            cth * sps, sph * sth * sps + cph * cps, cph * sth * sps - sph * cps,
+            -sth, sph * cth, cph * cth)
 
 
 def _name(raw: Any) -> str:
@@ -505,7 +517,7 @@ class FrameAssembler:
             sample = self._imu[inst]
         else:
             v6 = np.array(vals)  # one allocation, two views
-            sample = ImuSample(t_us, inst, v6[:3], v6[3:])
+            sample = new_imu_sample(t_us, inst, v6[:3], v6[3:])
             self._imu[inst] = sample
             self._imu_vals[inst] = vals
         self._imu_t[inst] = t_us  # later than this instance's last: the line only advances
@@ -1006,18 +1018,27 @@ class FrameAssembler:
             while len(ring) > 1 and ring[1].t_us <= t0_us:  # later intervals start later
                 ring.popleft()
             ts: list[int] = []
-            acc: list[np.ndarray] = []
+            dcm: list[tuple[float, ...]] = []
+            acc_frd: list[np.ndarray] = []
             for fr in ring:
                 if fr.t_us > t1_us and ts and ts[-1] >= t1_us:
                     break
                 imu = fr.imu[fr.primary] if fr.primary < len(fr.imu) else None
                 if imu is None or imu.t_us != fr.t_us or fr.euler_rad is None:
                     continue  # a held IMU value or no attitude: no sample of the shape
-                e = fr.euler_rad
+                e = fr.euler_rad.tolist()
                 ts.append(fr.t_us)
-                acc.append(dcm_ned_frd(float(e[0]), float(e[1]), float(e[2]))
-                           @ imu.acc_frd_mps2)
-            self._chord = imu_chord(ts, np.array(acc), t0_us, t1_us) if len(ts) >= 2 else None
+                dcm.append(_dcm_ned_frd_flat(e[0], e[1], e[2]))
+                acc_frd.append(imu.acc_frd_mps2)
+            if len(ts) >= 2:
+                # all samples' C_ned_frd @ a_frd in one call: a stacked matmul runs the same
+                # BLAS gemv per (3, 3) @ (3, 1) item as ``dcm_ned_frd(...) @ acc`` per sample
+                # did, so the values are bit-identical (a Python dot product is not: the BLAS
+                # kernel uses fused multiply-adds)
+                acc = np.matmul(np.array(dcm).reshape(-1, 3, 3), np.array(acc_frd)[:, :, None])
+                self._chord = imu_chord(ts, acc[:, :, 0], t0_us, t1_us)
+            else:
+                self._chord = None
         return None if self._chord is None else self._chord.error_at(t_us)
 
     # -- reporting ---------------------------------------------------------------------------

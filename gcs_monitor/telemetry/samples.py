@@ -9,7 +9,7 @@ from __future__ import annotations
 import bisect
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -50,6 +50,23 @@ class GpsQuery:
 
 
 _NONE = GpsQuery(None, math.inf, None, False)
+_new = object.__new__
+_QUERY_SET = tuple(getattr(GpsQuery, f.name).__set__ for f in fields(GpsQuery))
+
+
+def _query(vel: Vec3 | None, age_s: float, base: GpsSample | None, interpolated: bool,
+           upper: GpsSample | None) -> GpsQuery:
+    """``GpsQuery(vel, age_s, base, interpolated, upper)`` at less than half the cost (one per
+    Frame): a frozen dataclass's ``__init__`` sets each field through ``object.__setattr__``;
+    this sets the same slots through their descriptors. The object is the same."""
+    q = _new(GpsQuery)
+    sv, sa, sb, si, su = _QUERY_SET
+    sv(q, vel)
+    sa(q, age_s)
+    sb(q, base)
+    si(q, interpolated)
+    su(q, upper)
+    return q
 
 
 def interpolate_gps(ring: Sequence[GpsSample], t_us: int, max_gap_us: int,
@@ -84,9 +101,9 @@ def interpolate_gps(ring: Sequence[GpsSample], t_us: int, max_gap_us: int,
             a, b = g0.vel_tuple, g1.vel_tuple  # float arithmetic: cheaper than 3-vector numpy
             v = np.array((a[0] + w * (b[0] - a[0]), a[1] + w * (b[1] - a[1]),
                           a[2] + w * (b[2] - a[2])))
-            return GpsQuery(v, age_us * 1e-6, g0, True, g1)
+            return _query(v, age_us * 1e-6, g0, True, g1)
     vel = g0.vel_ned_mps if age_us <= max_hold_us else None
-    return GpsQuery(vel, age_us * 1e-6, g0, False)
+    return _query(vel, age_us * 1e-6, g0, False, None)
 
 
 def gps_sample(t_us: int, vn: float, ve: float, vd: float, lat_rad: float, lon_rad: float,
@@ -153,15 +170,53 @@ def imu_chord(t_us: Sequence[int], acc_ned_mps2: np.ndarray, t0_us: int,
     n = len(t_us)
     if n < 2 or t_us[0] > t0_us or t_us[-1] < t1_us or t1_us <= t0_us:
         return None
-    ts = np.asarray(t_us, dtype=np.float64) * 1e-6
-    a = np.asarray(acc_ned_mps2, dtype=np.float64)
-    steps = 0.5 * (a[1:] + a[:-1]) * np.diff(ts)[:, None]  # trapezoid
-    cum = np.vstack((np.zeros((1, 3)), np.cumsum(steps, axis=0)))
-    # both ends per axis in one np.interp call (each point is interpolated on its own)
-    ends = np.array([np.interp((t0_us * 1e-6, t1_us * 1e-6), ts, cum[:, i]) for i in range(3)])
-    c0 = ends[:, 0]
-    c1 = ends[:, 1]
-    mean = (c1 - c0) / ((t1_us - t0_us) * 1e-6)
-    dv = tuple((float(r[0]), float(r[1]), float(r[2])) for r in (cum - c0).tolist())
-    return ImuChord(t0_us, t1_us, tuple(int(t) for t in t_us), dv,
-                    (float(mean[0]), float(mean[1]), float(mean[2])))
+    # Python floats, in the operation order of the numpy formulation it replaces (bit-identical
+    # results, tests/gcs_monitor/telemetry/test_samples.py): a dozen samples per interval, for
+    # which numpy's per-call overhead cost more than the arithmetic
+    ts = [t * 1e-6 for t in t_us]
+    acc = np.asarray(acc_ned_mps2, dtype=np.float64).tolist()
+    # trapezoid steps, cumulated in order (np.cumsum): cum[0] = 0, cum[1] = the first step
+    cum: list[tuple[float, float, float]] = [(0.0, 0.0, 0.0)]
+    cx = cy = cz = 0.0
+    for k in range(n - 1):
+        a0, a1 = acc[k], acc[k + 1]
+        dt = ts[k + 1] - ts[k]
+        sx = 0.5 * (a1[0] + a0[0]) * dt
+        sy = 0.5 * (a1[1] + a0[1]) * dt
+        sz = 0.5 * (a1[2] + a0[2]) * dt
+        if k:
+            cx, cy, cz = cx + sx, cy + sy, cz + sz
+        else:
+            cx, cy, cz = sx, sy, sz
+        cum.append((cx, cy, cz))
+    c0 = _interp(t0_us * 1e-6, ts, cum)
+    c1 = _interp(t1_us * 1e-6, ts, cum)
+    span_s = (t1_us - t0_us) * 1e-6
+    mean = ((c1[0] - c0[0]) / span_s, (c1[1] - c0[1]) / span_s, (c1[2] - c0[2]) / span_s)
+    dv = tuple((r[0] - c0[0], r[1] - c0[1], r[2] - c0[2]) for r in cum)
+    return ImuChord(t0_us, t1_us, tuple(int(t) for t in t_us), dv, mean)
+
+
+def _interp(x: float, xp: list[float], fp: list[tuple[float, float, float]]
+            ) -> tuple[float, float, float]:
+    """``np.interp(x, xp, fp[:, i])`` for the three columns of ``fp``, with numpy's own
+    arithmetic and special cases (``xp`` increasing; the value at an exact sample point is that
+    sample's; outside the range the end value), so the result is bit-identical."""
+    n = len(xp)
+    if x < xp[0]:
+        return fp[0]
+    j = bisect.bisect_right(xp, x) - 1
+    if j >= n - 1 or xp[j] == x:
+        return fp[j]
+    x0, x1 = xp[j], xp[j + 1]
+    f0, f1 = fp[j], fp[j + 1]
+    out = []
+    for i in range(3):
+        slope = (f1[i] - f0[i]) / (x1 - x0)
+        v = slope * (x - x0) + f0[i]
+        if v != v:  # numpy: a NaN from one side, try the other
+            v = slope * (x - x1) + f1[i]
+            if v != v and f0[i] == f1[i]:
+                v = f0[i]
+        out.append(v)
+    return (out[0], out[1], out[2])

@@ -50,3 +50,20 @@ def test_ten_hz_gps_error_is_a_hundred_times_smaller():
     f = _frames(10)
     np.testing.assert_allclose(f[9_050_000].gps_interp_err_ned_mps, [0.0025, -0.0025, 0.0],
                                atol=1e-5)
+
+
+def test_flat_dcm_and_stacked_matmul_are_bit_identical_to_dcm_ned_frd():
+    # _interp_error rotates all samples of an interval in one stacked matmul of flat DCMs: the
+    # values must be those of dcm_ned_frd(...) @ acc per sample, to the bit
+    from gcs_monitor.core.frames import dcm_ned_frd
+    from gcs_monitor.telemetry.assembler import _dcm_ned_frd_flat
+
+    rng = np.random.default_rng(5)
+    eul = rng.uniform(-3.3, 3.3, (3000, 3))
+    acc = rng.normal(0.0, 10.0, (3000, 3))
+    flat = np.array([_dcm_ned_frd_flat(*e) for e in eul.tolist()])
+    ref = np.array([dcm_ned_frd(*e) for e in eul.tolist()])
+    assert flat.tobytes() == ref.reshape(-1, 9).tobytes()
+    stacked = np.matmul(flat.reshape(-1, 3, 3), acc[:, :, None])[:, :, 0]
+    one_by_one = np.array([c @ a for c, a in zip(ref, acc, strict=True)])
+    assert stacked.tobytes() == one_by_one.tobytes()

@@ -91,3 +91,46 @@ def test_chord_needs_samples_covering_the_interval():
     assert imu_chord(T_US[1:], acc[1:], 2_000_000, 3_000_000) is None  # starts late
     assert imu_chord(T_US[:-1], acc[:-1], 2_000_000, 3_000_000) is None  # ends early
     assert imu_chord(T_US, acc, 2_000_000, 4_000_000) is None
+
+
+def _chord_numpy(t_us, acc, t0_us, t1_us):
+    """imu_chord's values in its original numpy formulation (trapezoid, cumsum, np.interp)."""
+    ts = np.asarray(t_us, dtype=np.float64) * 1e-6
+    a = np.asarray(acc, dtype=np.float64)
+    steps = 0.5 * (a[1:] + a[:-1]) * np.diff(ts)[:, None]
+    cum = np.vstack((np.zeros((1, 3)), np.cumsum(steps, axis=0)))
+    ends = np.array([np.interp((t0_us * 1e-6, t1_us * 1e-6), ts, cum[:, i]) for i in range(3)])
+    mean = (ends[:, 1] - ends[:, 0]) / ((t1_us - t0_us) * 1e-6)
+    return cum - ends[:, 0], mean
+
+
+def test_chord_is_bit_identical_to_the_numpy_formulation():
+    # the Python-float implementation keeps numpy's operation order: not one bit may differ
+    rng = np.random.default_rng(3)
+    for it in range(2000):
+        n = int(rng.integers(2, 25))
+        dts = rng.integers(1, 30_000, n)
+        t = (int(rng.integers(0, 2**50)) + np.cumsum(dts)).tolist()
+        acc = rng.normal(0.0, 10.0, (n, 3)) * 10.0 ** int(rng.integers(-3, 3))
+        acc[int(rng.integers(0, n))] = -0.0
+        t0 = t[0] if it % 3 == 0 else t[0] + int(rng.integers(0, dts[1] + 1))
+        t1 = t[-1] if it % 2 == 0 else max(t0 + 1, t[-1] - int(rng.integers(0, dts[-1])))
+        ch = imu_chord(t, acc, t0, t1)
+        assert ch is not None
+        dv, mean = _chord_numpy(t, acc, t0, t1)
+        assert np.array(ch.dv).tobytes() == dv.tobytes()
+        assert np.array(ch.mean_acc).tobytes() == mean.tobytes()
+
+
+def test_fast_constructors_build_the_same_objects():
+    from gcs_monitor.telemetry.frame import ImuSample, new_imu_sample
+    from gcs_monitor.telemetry.samples import GpsQuery, _query
+
+    a, w = np.array([1.0, 2.0, 3.0]), np.array([0.1, 0.2, 0.3])
+    s = new_imu_sample(5, 1, a, w)
+    assert type(s) is ImuSample and s == ImuSample(5, 1, a, w) and repr(s) == repr(
+        ImuSample(5, 1, a, w))
+    assert s.acc_frd_mps2 is a and s.omega_frd_radps is w
+    q = _query(a, 0.5, RING[0], True, RING[1])
+    assert type(q) is GpsQuery and repr(q) == repr(GpsQuery(a, 0.5, RING[0], True, RING[1]))
+    assert _query(None, math.inf, None, False, None) == GpsQuery(None, math.inf, None, False)
