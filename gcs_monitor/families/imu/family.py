@@ -332,6 +332,8 @@ class ImuFamily:
         silent = {i for i, ts in seen.items()
                   if (quiet := t - ts - outage.get(i, 0)) > window
                   and quiet > NO_DATA_PERIODS * periods[i].seconds() * 1e6}
+        if not silent and not any(sm.active for sm in self._silent.values()):
+            return []  # nothing silent, nothing to clear
         events: list[AlarmEvent] = []
         for i in sorted(seen):
             sm = self._silent.get(i)

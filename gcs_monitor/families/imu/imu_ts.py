@@ -69,6 +69,7 @@ def fault_channels(instance: int) -> tuple[ChannelId, ...]:
 _EULER_CHANNELS = (
     ChannelId("euler", 0, "phi"), ChannelId("euler", 0, "theta"), ChannelId("euler", 0, "psi"),
 )  # fmt: skip
+_ZEROS6 = (0.0,) * 6  # no extra input variance (gates)
 _ANGLE_ROWS = (3, 5)  # phi and psi wrap at +-pi; theta stays within +-pi/2
 RESIDUAL_CHANNELS_GS = (
     ChannelId("gps_vel", 0, "n"), ChannelId("gps_vel", 0, "e"), ChannelId("gps_vel", 0, "d"),
@@ -515,17 +516,18 @@ class ImuTwoStageEstimator:
         interval, or a bridged GPS gap), and so does the fault step it admits; from a held
         previous attitude it also allows that sample's ``(rate x age)^2`` (``held_prev``)."""
         g = self.cfg.gate
-        ex = [0.0] * 6 if extra is None else extra
+        ex = _ZEROS6 if extra is None else extra
         nu, sd, r = innov.nu.tolist(), innov.S_diag.tolist(), self._r_prev
-        decisions = []
-        for j, (gate, step_max) in enumerate(zip(
-                self._gates, (g.acc_fault_step_max_mps2, g.gyro_fault_step_max_radps),
-                strict=True)):
-            a, b = 3 * j, 3 * j + 3
-            bound = step_bound(sd[a:b], ex[a:b], max(dt_s, dt_meas_s), g.gate_sigma, step_max,
-                               held_var=held_prev if j == 1 else ())
-            decisions.append(gate.decide(nu[a:b], r[a:b], bound))
-        if all(d is GateDecision.ACCEPT for d in decisions):
+        dt_gate_s = max(dt_s, dt_meas_s)
+        gate_vel, gate_att = self._gates  # velocity rows 0-2, attitude rows 3-5
+        decisions = (
+            gate_vel.decide(nu[:3], r[:3], step_bound(
+                sd[:3], ex[:3], dt_gate_s, g.gate_sigma, g.acc_fault_step_max_mps2)),
+            gate_att.decide(nu[3:], r[3:], step_bound(
+                sd[3:], ex[3:], dt_gate_s, g.gate_sigma, g.gyro_fault_step_max_radps,
+                held_var=held_prev)),
+        )
+        if decisions[0] is GateDecision.ACCEPT and decisions[1] is GateDecision.ACCEPT:
             return "", new, innov
         self._rejected = True
         # no information from the rejected rows this sample: the measurement is replaced by the
