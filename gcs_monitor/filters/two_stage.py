@@ -49,6 +49,7 @@ eq. 37 exists only here; the kernel has its non-iterated case ``eta_1 = x_bar_{k
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Protocol
 
@@ -518,6 +519,16 @@ class PackedTwoStage:
         Every step writes a row of its own (states stay immutable); rows come in blocks of
         :attr:`BLOCK` (:meth:`_new_block`).
         """
+        return self.step_with(self._kern.step_identity_output, (F, G, xb_prop), s, y, dt_s,
+                              noise, cfg)
+
+    def step_with(self, kernel: Callable[..., int], model_args: tuple[object, ...],
+                  s: TwoStageState, y: Vec, dt_s: float, noise: TwoStageNoise,
+                  cfg: TwoStageConfig) -> tuple[TwoStageState, Innovation]:
+        """:meth:`step` through ``kernel(buf, k, new_buf, *model_args, y, Q, R, adapt, dt_s,
+        gate_sigma, window_n, out)``: ``step_identity_output`` with ``model_args = (F, G,
+        xb_prop)``, or a model's kernel that computes those from the packed state and its own
+        ``model_args`` and then calls it (``families/imu/_imu_ts_jit.py``), one dispatch."""
         assert s.k >= cfg.n_iterated_steps
         last, buf = self._last
         if last is not s:
@@ -531,9 +542,8 @@ class PackedTwoStage:
         new_buf = rows[0][i]
         out = rows[1][i]
         m = self.m
-        code = self._kern.step_identity_output(
-            buf, s.k, new_buf, F, G, xb_prop, y, noise.Q, noise.R, cfg.adapt, dt_s,
-            cfg.gate_sigma, self.window_n, out)
+        code = kernel(buf, s.k, new_buf, *model_args, y, noise.Q, noise.R, cfg.adapt, dt_s,
+                      cfg.gate_sigma, self.window_n, out)
         if code == 1:  # prediction failed (P^f not PD): as _step_compiled
             return _fail(s, np.full(m, np.nan), np.full((m, m), np.nan), cfg.gate_sigma)
         innov = Innovation(nu=rows[11][i], S_diag=rows[12][i], test_ratio=rows[13][i],

@@ -223,13 +223,14 @@ class ImuTwoStageEstimator:
         self._restart_why = ""
         self._channels: tuple[ChannelId, ...] = FAULT_CHANNELS
         self._t_start_us = 0  # time of the last full (re)start
-        # Compiled hot path (GS-KM, numba): the model kernels write F, G and the propagated
-        # x_bar into these work arrays and PackedTwoStage runs the filter step in one call; the
-        # same equations and operations as two_stage_step (tests/.../test_imu_ts.py).
+        # Compiled hot path (GS-KM, numba): one kernel call (_imu_ts_jit.gs_km_step) writes F, G
+        # and the propagated x_bar into these work arrays and runs the PackedTwoStage filter
+        # step; the same equations and operations as two_stage_step (tests/.../test_imu_ts.py).
         gs_km = self.cfg.model == "gs"
-        self._kin = load_kernels("gcs_monitor.models._kinematics_jit") if gs_km else None
+        self._kern = load_kernels("gcs_monitor.families.imu._imu_ts_jit") if gs_km else None
         self._packed: PackedTwoStage | None = None
-        if self._kin is not None:
+        if self._kern is not None:
+            load_kernels("gcs_monitor.models._kinematics_jit")  # its dependency check
             self._packed = PackedTwoStage(6, 6, 6, self._fcfg.window_n)
             self._F = np.zeros((6, 6))
             self._G = np.zeros((6, 6))
@@ -430,16 +431,17 @@ class ImuTwoStageEstimator:
 
     def _step_packed(self, s: TwoStageState, frame: Frame, u_m: Vec, y: Vec, dt_s: float,
                      noise: TwoStageNoise) -> tuple[TwoStageState, Innovation]:
-        """``two_stage_step(s, GsKm(lat, alt), ...)`` through the compiled GS-KM and filter."""
-        assert self._kin is not None and self._packed is not None and self._u_prev is not None
+        """``two_stage_step(s, GsKm(lat, alt), ...)`` through the compiled GS-KM and filter, in
+        one kernel call (``_imu_ts_jit.gs_km_step``)."""
+        assert self._kern is not None and self._packed is not None and self._u_prev is not None
         lat, alt = frame.lat_rad, frame.alt_msl_m
         if (lat, alt) != self._g_key:  # GsKm.propagate's gravity, once per GPS position
             self._g_key = (lat, alt)
             self._g = gravity_mps2(lat, alt)
-        kin = self._kin
-        kin.jacobians(s.x, self._u_prev - s.f, lat, alt, self._F, self._G)  # Lu2016 note 1
-        kin.propagate(s.x_bar, self._u_prev, u_m, lat, alt, self._g, dt_s, self._xb)  # eq. 31
-        return self._packed.step(s, self._F, self._G, self._xb, y, dt_s, noise, self._fcfg)
+        # Lu2016 note 1 (F, G at x_hat with u_m - f_hat) and eq. 31, then the filter step
+        return self._packed.step_with(
+            self._kern.gs_km_step, (self._u_prev, u_m, lat, alt, self._g, self._F, self._G,
+                                    self._xb), s, y, dt_s, noise, self._fcfg)
 
     def _model(self, frame: Frame) -> GsKm | AsKm:
         if self.cfg.model == "gs":
