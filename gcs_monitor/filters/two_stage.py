@@ -48,6 +48,8 @@ eq. 37 exists only here; the kernel has its non-iterated case ``eta_1 = x_bar_{k
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Protocol
 
@@ -458,35 +460,52 @@ class PackedTwoStage:
     tests/gcs_monitor/filters/test_two_stage.py checks it against :func:`two_stage_step`.
     """
 
+    BLOCK = 64  # states per allocation (see :meth:`step`)
+
     def __init__(self, n: int, b: int, m: int, window_n: int) -> None:
         self.n, self.b, self.m, self.window_n = n, b, m, window_n
         sizes = (n, n * n, b, b * b, n * b, b * b, n, n * n, window_n * m)
         self.size = sum(sizes)
         self._last: tuple[TwoStageState | None, np.ndarray] = (None, np.empty(0))
         self._kern = load_kernels("gcs_monitor.filters._two_stage_jit")
+        self._next = self.BLOCK  # next unused row of the current block (none yet)
+        self._rows: tuple[np.ndarray, ...] = ()
 
     def pack(self, s: TwoStageState) -> np.ndarray:
         """The packed buffer of ``s`` (x_bar, P_bar, f, Pf, V, Qf, x, Px, gamma2 flattened)."""
         return np.concatenate([np.ravel(a) for a in (s.x_bar, s.P_bar, s.f, s.Pf, s.V, s.Qf,
                                                      s.x, s.Px, s.gamma2)])
 
+    def _split(self, buf: np.ndarray) -> tuple[np.ndarray, ...]:
+        """The components of packed buffers ``buf`` (..., size) as views (..., shape), in the
+        order of :meth:`pack`."""
+        n, b, m, w = self.n, self.b, self.m, self.window_n
+        lead = buf.shape[:-1]
+        shapes = ((n,), (n, n), (b,), (b, b), (n, b), (b, b), (n,), (n, n), (w, m))
+        out = []
+        o = 0
+        for shape in shapes:
+            size = math.prod(shape)
+            out.append(buf[..., o:o + size].reshape(lead + shape))
+            o += size
+        return tuple(out)
+
     def view(self, buf: np.ndarray, k: int) -> TwoStageState:
         """A :class:`TwoStageState` whose arrays are views of ``buf``."""
-        n, b, m, w = self.n, self.b, self.m, self.window_n
-        o1 = n
-        o2 = o1 + n * n
-        o3 = o2 + b
-        o4 = o3 + b * b
-        o5 = o4 + n * b
-        o6 = o5 + b * b
-        o7 = o6 + n
-        o8 = o7 + n * n
-        return TwoStageState(
-            x_bar=buf[:o1], P_bar=buf[o1:o2].reshape(n, n), f=buf[o2:o3],
-            Pf=buf[o3:o4].reshape(b, b), V=buf[o4:o5].reshape(n, b),
-            Qf=buf[o5:o6].reshape(b, b), x=buf[o6:o7], Px=buf[o7:o8].reshape(n, n), k=k,
-            gamma2=buf[o8:o8 + w * m].reshape(w, m),
-        )
+        x_bar, P_bar, f, Pf, V, Qf, x, Px, gamma2 = self._split(buf)
+        return TwoStageState(x_bar=x_bar, P_bar=P_bar, f=f, Pf=Pf, V=V, Qf=Qf, x=x, Px=Px, k=k,
+                             gamma2=gamma2)
+
+    def _new_block(self) -> None:
+        """Buffers for the next :attr:`BLOCK` steps: a (BLOCK, size) state block and a
+        (BLOCK, 3 m) innovation block, with every component as a (BLOCK, ...) view, so that a
+        step's new state and innovation are rows of them (integer indexing: one view each)."""
+        m = self.m
+        states = np.empty((self.BLOCK, self.size))
+        innov = np.empty((self.BLOCK, 3 * m))
+        self._rows = (states, innov, *self._split(states),
+                      innov[:, :m], innov[:, m:2 * m], innov[:, 2 * m:])
+        self._next = 0
 
     def step(self, s: TwoStageState, F: Mat, G: Mat, xb_prop: Vec, y: Vec, dt_s: float,
              noise: TwoStageNoise, cfg: TwoStageConfig) -> tuple[TwoStageState, Innovation]:
@@ -496,23 +515,43 @@ class PackedTwoStage:
         ----------
         F, G : (n, n), (n, b) model Jacobians at ``(s.x, u_prev - s.f)`` (Lu2016 note 1)
         xb_prop : (n,) ``model.propagate(s.x_bar, u_prev, u_now, dt_s)`` (eq. 31 without ubar)
+
+        Every step writes a row of its own (states stay immutable); rows come in blocks of
+        :attr:`BLOCK` (:meth:`_new_block`).
         """
+        return self.step_with(self._kern.step_identity_output, (F, G, xb_prop), s, y, dt_s,
+                              noise, cfg)
+
+    def step_with(self, kernel: Callable[..., int], model_args: tuple[object, ...],
+                  s: TwoStageState, y: Vec, dt_s: float, noise: TwoStageNoise,
+                  cfg: TwoStageConfig) -> tuple[TwoStageState, Innovation]:
+        """:meth:`step` through ``kernel(buf, k, new_buf, *model_args, y, Q, R, adapt, dt_s,
+        gate_sigma, window_n, out)``: ``step_identity_output`` with ``model_args = (F, G,
+        xb_prop)``, or a model's kernel that computes those from the packed state and its own
+        ``model_args`` and then calls it (``families/imu/_imu_ts_jit.py``), one dispatch."""
         assert s.k >= cfg.n_iterated_steps
         last, buf = self._last
         if last is not s:
             buf = self.pack(s)
-        new_buf = np.empty(self.size)
+        i = self._next
+        if i == self.BLOCK:
+            self._new_block()
+            i = 0
+        self._next = i + 1
+        rows = self._rows
+        new_buf = rows[0][i]
+        out = rows[1][i]
         m = self.m
-        out = np.empty(3 * m)
-        code = self._kern.step_identity_output(
-            buf, s.k, new_buf, F, G, xb_prop, y, noise.Q, noise.R, cfg.adapt, dt_s,
-            cfg.gate_sigma, self.window_n, out)
+        code = kernel(buf, s.k, new_buf, *model_args, y, noise.Q, noise.R, cfg.adapt, dt_s,
+                      cfg.gate_sigma, self.window_n, out)
         if code == 1:  # prediction failed (P^f not PD): as _step_compiled
             return _fail(s, np.full(m, np.nan), np.full((m, m), np.nan), cfg.gate_sigma)
-        innov = Innovation(nu=out[:m], S_diag=out[m:2 * m], test_ratio=out[2 * m:],
+        innov = Innovation(nu=rows[11][i], S_diag=rows[12][i], test_ratio=rows[13][i],
                            numerics_ok=code == 0)
         if code != 0:
             return s, innov
-        new = self.view(new_buf, s.k + 1)
+        new = TwoStageState(x_bar=rows[2][i], P_bar=rows[3][i], f=rows[4][i], Pf=rows[5][i],
+                            V=rows[6][i], Qf=rows[7][i], x=rows[8][i], Px=rows[9][i],
+                            k=s.k + 1, gamma2=rows[10][i])
         self._last = (new, new_buf)
         return new, innov

@@ -24,6 +24,8 @@ from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from gcs_monitor.core.constants import EARTH_RADIUS_M
 from gcs_monitor.core.types import ChannelId
 from gcs_monitor.families.base import FamilyContext, FaultEstimator, Verdict
@@ -169,8 +171,11 @@ class ImuFamily:
         positions north/east/down from the first one on the GS-KM's sphere (Lu2016 eq. 11)."""
         ref = self._ref
         assert ref is not None
-        v = frame.gps_vel_ned_mps
+        v_arr = frame.gps_vel_ned_mps
         lat, lon, alt = frame.lat_rad, frame.lon_rad, frame.alt_msl_m
+        # plain floats (the values themselves): cheaper to test and to integrate
+        v = None if v_arr is None else (v_arr.tolist() if isinstance(v_arr, np.ndarray)
+                                         else list(v_arr))
         if (v is None or frame.gps_held or not (math.isfinite(lat) and math.isfinite(lon)
                                                 and math.isfinite(alt))
                 or not all(map(math.isfinite, v))):
@@ -332,6 +337,8 @@ class ImuFamily:
         silent = {i for i, ts in seen.items()
                   if (quiet := t - ts - outage.get(i, 0)) > window
                   and quiet > NO_DATA_PERIODS * periods[i].seconds() * 1e6}
+        if not silent and not any(sm.active for sm in self._silent.values()):
+            return []  # nothing silent, nothing to clear
         events: list[AlarmEvent] = []
         for i in sorted(seen):
             sm = self._silent.get(i)

@@ -213,7 +213,7 @@ class MeasurementStepGate:
     def decide(self, nu: Sequence[float], r_prev: Sequence[float], bound: float
                ) -> GateDecision:
         """``nu``, ``r_prev``: (3,) as in the class docstring (plain floats or arrays)."""
-        inc = math.hypot(*(a - b for a, b in zip(nu, r_prev, strict=True)))
+        inc = math.hypot(*[a - b for a, b in zip(nu, r_prev, strict=True)])
         if not self.pending:
             if inc <= bound:
                 return GateDecision.ACCEPT

@@ -69,6 +69,7 @@ def fault_channels(instance: int) -> tuple[ChannelId, ...]:
 _EULER_CHANNELS = (
     ChannelId("euler", 0, "phi"), ChannelId("euler", 0, "theta"), ChannelId("euler", 0, "psi"),
 )  # fmt: skip
+_ZEROS6 = (0.0,) * 6  # no extra input variance (gates)
 _ANGLE_ROWS = (3, 5)  # phi and psi wrap at +-pi; theta stays within +-pi/2
 RESIDUAL_CHANNELS_GS = (
     ChannelId("gps_vel", 0, "n"), ChannelId("gps_vel", 0, "e"), ChannelId("gps_vel", 0, "d"),
@@ -222,13 +223,14 @@ class ImuTwoStageEstimator:
         self._restart_why = ""
         self._channels: tuple[ChannelId, ...] = FAULT_CHANNELS
         self._t_start_us = 0  # time of the last full (re)start
-        # Compiled hot path (GS-KM, numba): the model kernels write F, G and the propagated
-        # x_bar into these work arrays and PackedTwoStage runs the filter step in one call; the
-        # same equations and operations as two_stage_step (tests/.../test_imu_ts.py).
+        # Compiled hot path (GS-KM, numba): one kernel call (_imu_ts_jit.gs_km_step) writes F, G
+        # and the propagated x_bar into these work arrays and runs the PackedTwoStage filter
+        # step; the same equations and operations as two_stage_step (tests/.../test_imu_ts.py).
         gs_km = self.cfg.model == "gs"
-        self._kin = load_kernels("gcs_monitor.models._kinematics_jit") if gs_km else None
+        self._kern = load_kernels("gcs_monitor.families.imu._imu_ts_jit") if gs_km else None
         self._packed: PackedTwoStage | None = None
-        if self._kin is not None:
+        if self._kern is not None:
+            load_kernels("gcs_monitor.models._kinematics_jit")  # its dependency check
             self._packed = PackedTwoStage(6, 6, 6, self._fcfg.window_n)
             self._F = np.zeros((6, 6))
             self._G = np.zeros((6, 6))
@@ -282,7 +284,8 @@ class ImuTwoStageEstimator:
         if not geo:  # GS-KM: position comes with the GPS velocity; a bad field alone
             return Estimate.unavailable(self.name, frame.t_us, "latitude/altitude missing")
         u_m = np.concatenate([imu.acc_frd_mps2, imu.omega_frd_radps])
-        if not _all_finite(u_m):
+        u_l = u_m.tolist()  # the input as plain floats (gates, f_hat, corrected IMU)
+        if not all(map(math.isfinite, u_l)):
             return Estimate.unavailable(self.name, frame.t_us, "imu sample not finite")
         dt_s = (frame.t_us - self._t_prev_us) * 1e-6
         self._period.add(frame.t_us)
@@ -302,7 +305,7 @@ class ImuTwoStageEstimator:
                 self._restart_why = ""
                 self._t_start_us = frame.t_us
             self._u_prev, self._u_prev2, self._t_prev_us = u_m, None, frame.t_us
-            self._u_prev_l = u_m.tolist()
+            self._u_prev_l = u_l
             self._r_prev = [0.0] * 6
             for g in self._gates:
                 g.reset()
@@ -311,33 +314,37 @@ class ImuTwoStageEstimator:
         s = self._state
         if s.k == 0:  # the first step after a start: Q^f for the measured sample interval
             s = replace(s, Qf=self.qf0(dt_s))
-        y = y.copy()
-        y[5] = s.x[5] + _wrap_pi(y[5] - s.x[5])  # heading innovation across +-pi
-        if abs(y[3] - s.x[3]) > math.pi:  # roll across +-pi (a vehicle on its back)
-            y[3] = s.x[3] + _wrap_pi(y[3] - s.x[3])
+        # y is this step's own array (_measurement); plain floats, same operations
+        x_l = s.x.tolist()
+        y[5] = x_l[5] + _wrap_pi(float(y[5]) - x_l[5])  # heading innovation across +-pi
+        if abs(float(y[3]) - x_l[3]) > math.pi:  # roll across +-pi (a vehicle on its back)
+            y[3] = x_l[3] + _wrap_pi(float(y[3]) - x_l[3])
         noise, extra = self._noise, None
-        u_l = u_m.tolist()
-        if cfg.gate.enabled and self._u_prev2 is not None:
+        gate_on = cfg.gate.enabled
+        if gate_on and self._u_prev2 is not None:
             # gating.py item 1: unresolved intra-sample input profile is process noise (eq. 56)
             extra = intra_sample_excess_var(self._u_prev2, self._u_prev_l, u_l, self._d2_floor,
                                             self._d1_floor)
             if extra is not None:
-                noise = TwoStageNoise(Q=self._noise.Q + np.diag(extra), R=self._noise.R)
+                Q = self._noise.Q.copy()  # Q + diag(extra): its off-diagonal zeros stay zeros
+                Q.flat[::7] += extra
+                noise = TwoStageNoise(Q=Q, R=self._noise.R)
         held_prev = self._att_held_var
-        if cfg.model == "gs" and frame.att_age_s > 0.0:
+        gs = cfg.model == "gs"
+        if gs and frame.att_age_s > 0.0:
             noise, self._att_held_var = self._held_attitude_noise(noise, s, u_m,
                                                                   frame.att_age_s)
         else:
             self._att_held_var = ()
-        model = self._model(frame)
         if self._packed is not None and s.k >= self._fcfg.n_iterated_steps:
             new, innov = self._step_packed(s, frame, u_m, y, dt_s, noise)
         else:
-            new, innov = two_stage_step(s, model, self._u_prev, u_m, y, dt_s, noise, self._fcfg)
+            new, innov = two_stage_step(s, self._model(frame), self._u_prev, u_m, y, dt_s,
+                                        noise, self._fcfg)
         why = ""
         self._rejected = False
-        if cfg.gate.enabled and cfg.model == "gs" and innov.numerics_ok:
-            why, new, innov = self._gated(s, model, u_m, y, dt_s, noise, extra, new, innov,
+        if gate_on and gs and innov.numerics_ok:
+            why, new, innov = self._gated(s, frame, u_m, y, dt_s, noise, extra, new, innov,
                                           dt_meas_s, held_prev)
         self._u_prev2, self._u_prev_l = self._u_prev_l, u_l
         self._u_prev, self._t_prev_us = u_m, frame.t_us
@@ -346,14 +353,16 @@ class ImuTwoStageEstimator:
             self.reset()
             est = self._estimate(frame.t_us, s, u_m, innov.nu, False)
             return est
-        if abs(new.x[5]) > math.pi or abs(new.x[3]) > math.pi:
+        xn = new.x.tolist()
+        if abs(xn[5]) > math.pi or abs(xn[3]) > math.pi:
             # keep phi and psi in (-pi, pi]; a 2 pi shift leaves P unchanged
             shift = np.zeros(6)
             for i in _ANGLE_ROWS:
-                shift[i] = _wrap_pi(new.x[i]) - new.x[i]
+                shift[i] = _wrap_pi(xn[i]) - xn[i]
             new = replace(new, x_bar=new.x_bar + shift, x=new.x + shift)
+            xn = new.x.tolist()
         self._state = new
-        r = (y - new.x).tolist()
+        r = [a - b for a, b in zip(y.tolist(), xn, strict=True)]
         r[5] = _wrap_pi(r[5])  # y[5] was unwrapped against the previous state, new.x may wrap
         if abs(r[3]) > math.pi:
             r[3] = _wrap_pi(r[3])
@@ -361,7 +370,7 @@ class ImuTwoStageEstimator:
         # a sample the step gate rejected is a reference step, not noise: its test ratios do
         # not enter the noise-model consistency check (family.py)
         est = self._estimate(frame.t_us, new, u_m, innov.nu, True,
-                             None if self._rejected else innov.test_ratio)
+                             None if self._rejected else innov.test_ratio, u_l)
         if why:
             return replace(est, reinit=why, reinit_warmup_s=cfg.reanchor_warmup_s)
         return est
@@ -422,16 +431,17 @@ class ImuTwoStageEstimator:
 
     def _step_packed(self, s: TwoStageState, frame: Frame, u_m: Vec, y: Vec, dt_s: float,
                      noise: TwoStageNoise) -> tuple[TwoStageState, Innovation]:
-        """``two_stage_step(s, GsKm(lat, alt), ...)`` through the compiled GS-KM and filter."""
-        assert self._kin is not None and self._packed is not None and self._u_prev is not None
+        """``two_stage_step(s, GsKm(lat, alt), ...)`` through the compiled GS-KM and filter, in
+        one kernel call (``_imu_ts_jit.gs_km_step``)."""
+        assert self._kern is not None and self._packed is not None and self._u_prev is not None
         lat, alt = frame.lat_rad, frame.alt_msl_m
         if (lat, alt) != self._g_key:  # GsKm.propagate's gravity, once per GPS position
             self._g_key = (lat, alt)
             self._g = gravity_mps2(lat, alt)
-        kin = self._kin
-        kin.jacobians(s.x, self._u_prev - s.f, lat, alt, self._F, self._G)  # Lu2016 note 1
-        kin.propagate(s.x_bar, self._u_prev, u_m, lat, alt, self._g, dt_s, self._xb)  # eq. 31
-        return self._packed.step(s, self._F, self._G, self._xb, y, dt_s, noise, self._fcfg)
+        # Lu2016 note 1 (F, G at x_hat with u_m - f_hat) and eq. 31, then the filter step
+        return self._packed.step_with(
+            self._kern.gs_km_step, (self._u_prev, u_m, lat, alt, self._g, self._F, self._G,
+                                    self._xb), s, y, dt_s, noise, self._fcfg)
 
     def _model(self, frame: Frame) -> GsKm | AsKm:
         if self.cfg.model == "gs":
@@ -498,7 +508,7 @@ class ImuTwoStageEstimator:
         n_steps = gap_s / self._period.seconds()  # steps of the measured sample period
         return replace(fresh, f=s.f.copy(), Pf=s.Pf + n_steps * s.Qf, Qf=s.Qf.copy(), k=s.k)
 
-    def _gated(self, s: TwoStageState, model: GsKm | AsKm, u_m: Vec, y: Vec, dt_s: float,
+    def _gated(self, s: TwoStageState, frame: Frame, u_m: Vec, y: Vec, dt_s: float,
                noise: TwoStageNoise, extra: list[float] | None, new: TwoStageState,
                innov: Innovation, dt_meas_s: float, held_prev: tuple[float, ...] = (),
                ) -> tuple[str, TwoStageState, Innovation]:
@@ -508,17 +518,18 @@ class ImuTwoStageEstimator:
         interval, or a bridged GPS gap), and so does the fault step it admits; from a held
         previous attitude it also allows that sample's ``(rate x age)^2`` (``held_prev``)."""
         g = self.cfg.gate
-        ex = [0.0] * 6 if extra is None else extra
+        ex = _ZEROS6 if extra is None else extra
         nu, sd, r = innov.nu.tolist(), innov.S_diag.tolist(), self._r_prev
-        decisions = []
-        for j, (gate, step_max) in enumerate(zip(
-                self._gates, (g.acc_fault_step_max_mps2, g.gyro_fault_step_max_radps),
-                strict=True)):
-            a, b = 3 * j, 3 * j + 3
-            bound = step_bound(sd[a:b], ex[a:b], max(dt_s, dt_meas_s), g.gate_sigma, step_max,
-                               held_var=held_prev if j == 1 else ())
-            decisions.append(gate.decide(nu[a:b], r[a:b], bound))
-        if all(d is GateDecision.ACCEPT for d in decisions):
+        dt_gate_s = max(dt_s, dt_meas_s)
+        gate_vel, gate_att = self._gates  # velocity rows 0-2, attitude rows 3-5
+        decisions = (
+            gate_vel.decide(nu[:3], r[:3], step_bound(
+                sd[:3], ex[:3], dt_gate_s, g.gate_sigma, g.acc_fault_step_max_mps2)),
+            gate_att.decide(nu[3:], r[3:], step_bound(
+                sd[3:], ex[3:], dt_gate_s, g.gate_sigma, g.gyro_fault_step_max_radps,
+                held_var=held_prev)),
+        )
+        if decisions[0] is GateDecision.ACCEPT and decisions[1] is GateDecision.ACCEPT:
             return "", new, innov
         self._rejected = True
         # no information from the rejected rows this sample: the measurement is replaced by the
@@ -528,8 +539,8 @@ class ImuTwoStageEstimator:
             if d is not GateDecision.ACCEPT:
                 y_pred[3 * j:3 * j + 3] -= innov.nu[3 * j:3 * j + 3]
         assert self._u_prev is not None  # step only gates after a step from _u_prev
-        new, innov2 = two_stage_step(s, model, self._u_prev, u_m, y_pred, dt_s, noise,
-                                     self._fcfg)
+        new, innov2 = two_stage_step(s, self._model(frame), self._u_prev, u_m, y_pred, dt_s,
+                                     noise, self._fcfg)
         if not innov2.numerics_ok:
             return "", new, innov2
         why = []
@@ -572,10 +583,13 @@ class ImuTwoStageEstimator:
         )
 
     def _estimate(self, t_us: int, s: TwoStageState, u_m: Vec, nu: Vec, ok: bool,
-                  test_ratio: Vec | None = None) -> Estimate:
+                  test_ratio: Vec | None = None, u_l: list[float] | None = None) -> Estimate:
+        """The Estimate of state ``s``; ``u_l``: ``u_m.tolist()`` when the caller has it."""
         x = s.x
         f = s.f.tolist()
-        u_hat = (u_m - s.f).tolist()  # Lu2016 eq. 60
+        if u_l is None:
+            u_l = u_m.tolist()
+        u_hat = [a - b for a, b in zip(u_l, f, strict=True)]  # Lu2016 eq. 60: u_m - f_hat
         if self.cfg.model == "gs":
             states = {"vel_ned_mps": x[:3].copy(), "euler_rad": x[3:].copy()}
             if test_ratio is not None:  # nu_i^2 / (gate^2 S_ii) per row: consistency check
@@ -584,13 +598,13 @@ class ImuTwoStageEstimator:
         else:
             states = {"vel_air_frd_mps": x[:3].copy(), "euler_rad": x[3:].copy()}
             res_names = RESIDUAL_CHANNELS_AS
-        nul = nu.tolist()
+        chans = self._channels
         return Estimate(
             name=self.name,
             t_us=t_us,
             states=states,
-            faults=dict(zip(self._channels, f, strict=True)),
-            residuals=dict(zip(res_names, nul, strict=True)),
-            virtual=dict(zip(self._channels, u_hat, strict=True)),
+            faults=dict(zip(chans, f, strict=True)),
+            residuals=dict(zip(res_names, nu.tolist(), strict=True)),
+            virtual=dict(zip(chans, u_hat, strict=True)),
             numerics_ok=ok,
         )
