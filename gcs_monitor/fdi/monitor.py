@@ -197,13 +197,23 @@ class FrozenSignalCheck:
         d = self.activity()
         out = [False] * len(d)
         ratio = self.ratio
+        # the two largest D (their values: the largest peer of each instance is one of them)
+        top = top2 = -math.inf
+        i_top = -1
+        for j, x in enumerate(d):
+            if x > top:
+                top, top2, i_top = x, top, j
+            elif x > top2:
+                top2 = x
         for i, di in enumerate(d):
             past = self._past[i]
             # the newest stored window may already be the frozen one; judge against the older
             n_older = len(past) - 1 if self._since[i] == 0 else len(past)
             if di != di or n_older < 2:
                 continue
-            peer = max((x for j, x in enumerate(d) if j != i and x == x), default=0.0)
+            peer = top2 if i == i_top else top  # max over the others' D, 0 without any
+            if peer == -math.inf:
+                peer = 0.0
             if not (peer > self.floor and di < ratio * peer):
                 continue  # an active instance: its own past need not be sorted
             srt = sorted(past[:n_older])

@@ -182,6 +182,8 @@ def mhe_step(
     weights: MheWeights,
     bounds: MheBounds,
     ip: IpSettings,
+    *,
+    x_node: Vec | None = None,
 ) -> tuple[MheState, MheInfo]:
     """Shift the horizon by one sample and do one real-time GGN-SQP iteration (Wan2018 sec. V).
 
@@ -192,6 +194,8 @@ def mhe_step(
     y_mask : (n_y,) 1 to use the output, 0 to zero its row of C_i (Wan2018 sec. V-C)
     theta_p : measured parameters Theta_k
     dt_s : t_s between samples k-1 and k
+    x_node : x_hat_{k|k-1} when the caller has it already (:func:`mhe_predict` of ``s`` and
+        ``dt_s``); computed here otherwise
 
     The step runs through the kernels of ``filters/_mhe_jit.py``: shift, the model's
     linearisation (its compiled ``linearise_horizon``, else :func:`_linearise`), QP, result.
@@ -200,7 +204,8 @@ def mhe_step(
     big_n = s.x.shape[0]
     n_x, n_u, n_y = model.n_x, model.n_u, model.n_y
     # x_hat_{k|k-1} = F(x_hat_{k-1|k-1}, 0, Theta_{k-1}), appended by the shift
-    x_node = model.f(s.x[s.n - 1], np.zeros(n_u), s.theta[s.n - 1], dt_s)
+    if x_node is None:
+        x_node = mhe_predict(s, model, dt_s)
     x_lin = np.empty_like(s.x)
     u_lin = np.empty_like(s.u)
     th = np.empty_like(s.theta)

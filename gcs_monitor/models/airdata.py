@@ -132,19 +132,26 @@ def airdata_derivative(x: Vec, theta_p: Vec, p: AirDataModelParams) -> Vec:
     -------
     (4,) [alpha_dot, V_g_dot, 0, 0]
     """
-    alpha = x[IX_AOA]
-    vg, theta, q, ax, az = (
-        theta_p[IT_VG],
-        theta_p[IT_THETA],
-        theta_p[IT_Q],
-        theta_p[IT_AX],
-        theta_p[IT_AZ],
-    )
+    th = theta_p.tolist()
+    alpha_dot, vg_dot = _derivative(float(x[IX_AOA]), th, p.g_mps2)
+    return np.array([alpha_dot, vg_dot, 0.0, 0.0])
+
+
+def _derivative(alpha: float, th: list[float], g_mps2: float) -> tuple[float, float]:
+    """(alpha_dot, V_g_dot) of :func:`airdata_derivative` on Python floats (``th``: Theta as a
+    list; a 4-vector's numpy operations cost more than its arithmetic)."""
+    vg, theta, q, ax, az = th[IT_VG], th[IT_THETA], th[IT_Q], th[IT_AX], th[IT_AZ]
     sa, ca = math.sin(alpha), math.cos(alpha)
-    g_a, g_v = _gravity_terms(alpha, theta, lateral(theta_p)[0])
-    f_alpha = -ax * sa + az * ca + p.g_mps2 * g_a  # g cos(alpha - theta) at phi = 0
-    f_v = ax * ca + az * sa + p.g_mps2 * g_v  # g sin(alpha - theta) at phi = 0
-    return np.array([f_alpha / vg + q, f_v, 0.0, 0.0])
+    g_a, g_v = _gravity_terms(alpha, theta, th[IT_PHI] if len(th) > IT_BETA else 0.0)
+    f_alpha = -ax * sa + az * ca + g_mps2 * g_a  # g cos(alpha - theta) at phi = 0
+    f_v = ax * ca + az * sa + g_mps2 * g_v  # g sin(alpha - theta) at phi = 0
+    return _div(f_alpha, vg) + q, f_v
+
+
+def _div(a: float, b: float) -> float:
+    """a / b as numpy divides float64 (inf or NaN with a warning for b = 0, where a Python float
+    division raises)."""
+    return a / b if b != 0.0 else float(np.float64(a) / b)
 
 
 def airdata_f(x: Vec, u: Vec, theta_p: Vec, dt_s: float, p: AirDataModelParams) -> Vec:
@@ -155,11 +162,17 @@ def airdata_f(x: Vec, u: Vec, theta_p: Vec, dt_s: float, p: AirDataModelParams) 
     ----------
     x : (4,) state; u : (4,) unknown inputs (rates); theta_p : (6,) Theta_k; dt_s : t_s (s)
     """
-    out = x + dt_s * (airdata_derivative(x, theta_p, p) + u)
+    # Python floats, each entry rounded as the vector form x + t_s (F + u) rounds it
+    x0, x1, x2, x3 = x.tolist()
+    u0, u1, u2, u3 = u.tolist()
+    th = theta_p.tolist()
+    dt = float(dt_s)
+    alpha_dot, vg_dot = _derivative(x0, th, p.g_mps2)
+    a = x0 + dt * (alpha_dot + u0)
     if p.wind_accel_in_alpha:
-        d = x[IX_AOA] - theta_p[IT_THETA]
-        out[IX_AOA] += dt_s * (u[IX_WX] * math.sin(d) - u[IX_WZ] * math.cos(d)) / theta_p[IT_VG]
-    return out
+        d = x0 - th[IT_THETA]
+        a += _div(dt * (u2 * math.sin(d) - u3 * math.cos(d)), th[IT_VG])
+    return np.array([a, x1 + dt * (vg_dot + u1), x2 + dt * (0.0 + u2), x3 + dt * (0.0 + u3)])
 
 
 def airdata_f_jac_x(

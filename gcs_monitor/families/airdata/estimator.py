@@ -18,7 +18,6 @@ without residuals, so residual windows count air-data samples (N_eval = 10, Wan2
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import math
 from dataclasses import dataclass
@@ -153,6 +152,7 @@ class AirDataEstimator:
             kappa_init=c.kappa_init, n_s_max=c.n_s_max, constrained=(variant == "cmhe")
         )
         self.envelope = self.cfg.envelope
+        self._ids: dict[tuple[str, int], ChannelId] = {}
         self.bounds = MheBounds.unbounded(N_X, N_U)
         self.set_wind_bounds(c.wind_x_max_mps, c.wind_z_max_mps, c.wind_rate_max_mps2)
         self.reset()
@@ -205,7 +205,9 @@ class AirDataEstimator:
         self._theta_prev: Vec | None = None
         self._t_prev_us: int | None = None
         self._fused = None
-        self._acc_sum = np.zeros(3)  # A_x, A_z, q summed since the last air-data step
+        # A_x, A_z, q summed since the last air-data step (Python floats: one IMU sample per
+        # Frame, where numpy's per-call overhead exceeds the three additions)
+        self._sum_ax = self._sum_az = self._sum_q = 0.0
         self._acc_n = 0
         self._prepared: _Prepared | None = None
         self._last_states: dict[str, Vec] = {}
@@ -258,17 +260,19 @@ class AirDataEstimator:
             return Estimate(name=self.name, t_us=frame.t_us, reason=p.reason)
         dt_s, y_pred = p.dt_s, p.y_pred
         residuals: dict[ChannelId, float] = {}
-        for i, v in enumerate(frame.aoa_rad):
-            if np.isfinite(v):
-                residuals[ChannelId("aoa", i)] = float(v - y_pred[IY_AOA])  # eq. 17
-        for i, v in enumerate(frame.cas_mps):
-            if np.isfinite(v):
-                residuals[ChannelId("cas", i)] = float(v - y_pred[IY_CAS])  # eq. 17
+        aoa_pred, cas_pred = float(y_pred[IY_AOA]), float(y_pred[IY_CAS])
+        for i, v in enumerate(_floats(frame.aoa_rad)):
+            if math.isfinite(v):
+                residuals[self._channel("aoa", i)] = v - aoa_pred  # eq. 17
+        for i, v in enumerate(_floats(frame.cas_mps)):
+            if math.isfinite(v):
+                residuals[self._channel("cas", i)] = v - cas_pred  # eq. 17
 
         ok = True
         if self._mhe is not None:
             self._mhe, info = mhe_step(
-                self._mhe, self.model, y, mask, theta_p, dt_s, self.weights, self.bounds, self.ip
+                self._mhe, self.model, y, mask, theta_p, dt_s, self.weights, self.bounds, self.ip,
+                x_node=p.x_pred,
             )
             ok = info.numerics_ok
             x_hat = self._mhe.x[self._mhe.n - 1]
@@ -279,7 +283,7 @@ class AirDataEstimator:
             self._ekf = upd.state
             ok = upd.numerics_ok
             x_hat = self._ekf.x
-        if not ok or not np.all(np.isfinite(x_hat)):
+        if not ok or not all(math.isfinite(v) for v in x_hat.tolist()):
             logger.warning("%s: numerical failure at t_us=%d, reset", self.name, frame.t_us)
             self.reset()
             return Estimate(
@@ -312,6 +316,14 @@ class AirDataEstimator:
         )
 
     # ------------------------------------------------------------------ internals
+    def _channel(self, kind: str, instance: int) -> ChannelId:
+        """``ChannelId(kind, instance)``, built once (frozen: one object serves every
+        Estimate)."""
+        c = self._ids.get((kind, instance))
+        if c is None:
+            c = self._ids[(kind, instance)] = ChannelId(kind, instance)
+        return c
+
     def _prepare(self, frame: Frame) -> _Prepared | None:
         """Everything of an air-data step that does not need y_k: Theta_k, t_s, the bounds
         of the flight condition and x_hat_{k|k-1}. Once per frame (cached for :meth:`step`);
@@ -321,13 +333,16 @@ class AirDataEstimator:
         imu = frame.primary_imu
         if imu is not None and imu.t_us == frame.t_us:
             # Anti-aliasing: Theta's A_x, A_z, q are averaged over the IMU samples of the interval.
-            self._acc_sum += (imu.acc_frd_mps2[0], imu.acc_frd_mps2[2], imu.omega_frd_radps[1])
+            acc = imu.acc_frd_mps2
+            self._sum_ax += float(acc[0])
+            self._sum_az += float(acc[2])
+            self._sum_q += float(imu.omega_frd_radps[1])
             self._acc_n += 1
         if not frame.air_new:
             self._prepared = None
             return None
         theta_p, why = self._theta(frame)
-        self._acc_sum[:] = 0.0
+        self._sum_ax = self._sum_az = self._sum_q = 0.0
         self._acc_n = 0
         p = _Prepared(frame=frame, theta_p=theta_p, reason=why)
         self._prepared = p
@@ -355,7 +370,7 @@ class AirDataEstimator:
         else:
             assert self._ekf is not None
             x_pred = self.model.f(self._ekf.x, np.zeros(N_U), self._theta_prev, dt_s)
-        p.dt_s, p.y_pred = dt_s, self.model.h(x_pred, theta_p)
+        p.dt_s, p.x_pred, p.y_pred = dt_s, x_pred, self.model.h(x_pred, theta_p)
         return p
 
     def _align_rates(self, theta_p: Vec) -> None:
@@ -364,10 +379,13 @@ class AirDataEstimator:
         Eq. 20 integrates F(x_{k-1}, Theta_{k-1}) over t_s; its q, A_x, A_z are the averages over
         (t_{k-1}, t_k], which ``theta_p`` (Theta_k) carries. The output equations (eqs. 15-16)
         do not use them, so node k-1's outputs are unchanged."""
-        if self._mhe is not None:
-            th = self._mhe.theta.copy()
-            th[self._mhe.n - 1, _IT_RATES] = theta_p[_IT_RATES]
-            self._mhe = dataclasses.replace(self._mhe, theta=th)
+        s = self._mhe
+        if s is not None:
+            th = s.theta.copy()
+            j = s.n - 1
+            th[j, IT_Q], th[j, IT_AX], th[j, IT_AZ] = theta_p[IT_Q], theta_p[IT_AX], theta_p[IT_AZ]
+            self._mhe = MheState(x=s.x, u=s.u, theta=th, dt_s=s.dt_s, y=s.y, y_mask=s.y_mask,
+                                 n=s.n)
         elif self._theta_prev is not None:
             th_prev = self._theta_prev.copy()
             th_prev[_IT_RATES] = theta_p[_IT_RATES]
@@ -384,8 +402,9 @@ class AirDataEstimator:
         if not np.isfinite(frame.baro_alt_m):
             return None, "baro altitude missing"
         vg = self._ground_speed(frame)
-        mean = self._acc_sum / self._acc_n
-        th = [vg, frame.euler_rad[1], mean[2], mean[0], mean[1], frame.baro_alt_m]
+        n = self._acc_n
+        th = [vg, frame.euler_rad[1], self._sum_q / n, self._sum_ax / n, self._sum_az / n,
+              frame.baro_alt_m]
         if self.cfg.lateral_terms:  # + [phi, beta] (models.airdata.lateral)
             th += [frame.euler_rad[0], frame.ssa_rad if math.isfinite(frame.ssa_rad) else 0.0]
         return np.array(th), ""
@@ -445,7 +464,13 @@ class _Prepared:
     theta_p: Vec | None
     reason: str = ""
     dt_s: float = 0.0
+    x_pred: Vec | None = None  # x_hat_{k|k-1} (eq. 29), which the MHE's shift appends
     y_pred: Vec | None = None  # h(x_hat_{k|k-1}, Theta_k); None at start-up or after a gap
+
+
+def _floats(x: Vec) -> list[float]:
+    """A Frame's per-instance array as a list of Python floats."""
+    return cast(list[float], x.tolist()) if isinstance(x, np.ndarray) else [float(v) for v in x]
 
 
 def _nanmean_or_none(v: Vec) -> float | None:

@@ -29,7 +29,7 @@ from gcs_monitor.families.airdata.estimator import VIRTUAL_CAS, AirDataEstimator
 from gcs_monitor.families.airdata.weather import WeatherEstimator, wind_ned
 from gcs_monitor.families.base import AIRSPEED_CAS, FUSED, VIRTUAL, FamilyContext, Verdict
 from gcs_monitor.fdi.config import scheduled_threshold, set_params
-from gcs_monitor.fdi.events import AlarmState
+from gcs_monitor.fdi.events import AlarmState, SetStatus
 from gcs_monitor.fdi.fusion import MheMeasurementFusion
 from gcs_monitor.fdi.monitor import RedundantSetMonitor
 from gcs_monitor.fdi.records import Estimate, FamilyStatus
@@ -116,10 +116,10 @@ class AirDataFamily:
         verdict = Verdict(FamilyStatus(self.name, t_us, True))
         # Python floats and lists: numpy per-call overhead dominates for three instances
         stale = self.ctx.stale_after_s
-        values = {"aoa": (frame.aoa_rad, frame.aoa_age_s), "cas": (frame.cas_mps, frame.cas_age_s)}
+        values = ((frame.aoa_rad, frame.aoa_age_s), (frame.cas_mps, frame.cas_age_s))
         for k, s in enumerate(SETS):
             mon = self.sets[s]
-            raw, age = values[s]
+            raw, age = values[k]
             m = _floats(raw)[:mon.n]
             valid = [math.isfinite(x) and a < stale
                      for x, a in zip(m, _floats(age), strict=False)]
@@ -132,9 +132,12 @@ class AirDataFamily:
             if self.estimator is not None:
                 # eq. 19 on independent weights; Table I / sec. V-C: a lost set (no healthy
                 # instance) removes its row of C
-                fused, w = self._fusion[s].step(list(status.measured), valid, status)
-                status = dataclasses.replace(status, fused=math.nan if fused is None else fused,
-                                             weights=w)
+                fused, w = self._fusion[s].step(m, valid, status)  # m: status.measured
+                status = SetStatus(
+                    name=status.name, t_us=status.t_us, measured=status.measured,
+                    reference=status.reference, fused=math.nan if fused is None else fused,
+                    weights=w, rms=status.rms, threshold=status.threshold,
+                    faulty=status.faulty, configuration=status.configuration)
                 verdict.fused[s] = fused
             else:
                 verdict.fused[s] = status.fused if math.isfinite(status.fused) else None
@@ -145,7 +148,7 @@ class AirDataFamily:
             # fusion uses: holding on it froze the estimate for as long as any alarm stood
             # (triplex run 41: an AoA instance isolated at 30.9 s, a 10 m/s shear from 33.5 s
             # never learnt, all three CAS flagged at 41.8 s)
-            if self.sets[s].suspected or any(e.state is not AlarmState.UPDATED
+            if mon.suspected or any(e.state is not AlarmState.UPDATED
                                              for e in events):
                 self._hold = True
         return verdict

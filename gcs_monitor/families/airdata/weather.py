@@ -93,21 +93,29 @@ def wind_ned(vel_ned_mps: np.ndarray, euler_rad: np.ndarray, cas_mps: float, aoa
 
 
 class _RunningMean:
-    """Mean of a vector over the last ``span_us`` of vehicle time (exact sums, O(1))."""
+    """Mean of a 3-vector over the last ``span_us`` of vehicle time (exact sums, O(1)).
+
+    Python floats, each entry added, subtracted and divided as numpy's elementwise operations
+    on the vector would (numpy's per-call overhead exceeds the arithmetic of three entries)."""
 
     __slots__ = ("span_us", "_buf", "_sum")
 
     def __init__(self, span_us: int) -> None:
         self.span_us = span_us
-        self._buf: deque[tuple[int, np.ndarray]] = deque()
-        self._sum = np.zeros(3)
+        self._buf: deque[tuple[int, tuple[float, float, float]]] = deque()
+        self._sum = (0.0, 0.0, 0.0)
 
-    def add(self, t_us: int, x: np.ndarray) -> np.ndarray:
-        self._buf.append((t_us, x))
-        self._sum = self._sum + x
-        while self._buf[0][0] <= t_us - self.span_us:
-            self._sum = self._sum - self._buf.popleft()[1]
-        return self._sum / len(self._buf)
+    def add(self, t_us: int, x: tuple[float, float, float]) -> tuple[float, float, float]:
+        buf = self._buf
+        buf.append((t_us, x))
+        s0, s1, s2 = self._sum
+        s0, s1, s2 = s0 + x[0], s1 + x[1], s2 + x[2]
+        while buf[0][0] <= t_us - self.span_us:
+            o = buf.popleft()[1]
+            s0, s1, s2 = s0 - o[0], s1 - o[1], s2 - o[2]
+        self._sum = (s0, s1, s2)
+        n = len(buf)
+        return s0 / n, s1 / n, s2 / n
 
     def __len__(self) -> int:
         return len(self._buf)
@@ -166,17 +174,20 @@ class WeatherEstimator:
     def add(self, t_us: int, wind: np.ndarray | None) -> WindEnvelope | None:
         """One air-data sample's kinematic wind (None when it cannot be trusted); returns the
         new envelope when it is recomputed (every ``update_s``), else None."""
-        if wind is not None and t_us >= self._hold_until and np.all(np.isfinite(wind)):
+        w = (0.0, 0.0, 0.0) if wind is None else wind.tolist()
+        if (wind is not None and t_us >= self._hold_until and math.isfinite(w[0])
+                and math.isfinite(w[1]) and math.isfinite(w[2])):
             if self._last_t is not None and 0 < t_us - self._last_t <= self._max_gap_us:
                 self._usable_us += t_us - self._last_t
             self._last_t = t_us
-            mean = self._mean.add(t_us, wind)
-            gust = wind - mean
-            var = float(np.mean(self._gust2.add(t_us, gust * gust)))
+            mean = self._mean.add(t_us, (w[0], w[1], w[2]))
+            g0, g1, g2 = w[0] - mean[0], w[1] - mean[1], w[2] - mean[2]
+            v0, v1, v2 = self._gust2.add(t_us, (g0 * g0, g1 * g1, g2 * g2))
+            var = (v0 + v1 + v2) / 3  # np.mean of three: ((v0 + v1) + v2) / 3
             self._wind_h = self._max_h.add(t_us, math.hypot(mean[0], mean[1]))
             self._wind_z = self._max_z.add(t_us, abs(mean[2]))
             self._sigma = self._max_sigma.add(t_us, math.sqrt(max(var, 0.0)))
-            self._last_mean = mean
+            self._last_mean = np.array(mean)
         if t_us < self._next_update:
             return None
         self._next_update = t_us + self._update_us
