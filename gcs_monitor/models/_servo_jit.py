@@ -235,14 +235,41 @@ def command_at(qc0, qc1, t, t_knee):
 @jit
 def _stage_tangent(s, q, f_in, prm, M, A, G, K):
     """``K = A(s) M + [0 | G(s)]`` (6, 7): the variational equation of the closed loop for the
-    tangent ``M = [d s / d s_0 | d s / d f^i]`` (``s``, ``prm``: arrays or tuples)."""
+    tangent ``M = [d s / d s_0 | d s / d f^i]`` (``s``, ``prm``: arrays or tuples).
+
+    The product runs over the entries of ``A`` that :func:`jacobian` can make nonzero (rows 0,
+    1, 3 and 4 have one or two, row 5 the reference block, row 2 all six), each sum from +0.0
+    in ascending column order: a skipped term is an exact zero, which leaves such a sum as it
+    was, so ``K`` is the dense product's, bit for bit, for a finite ``M``."""
     jacobian(s, q, f_in, prm, A, G)
+    a01 = A[0, 1]
+    a11 = A[1, 1]
+    a12 = A[1, 2]
+    a20 = A[2, 0]
+    a21 = A[2, 1]
+    a22 = A[2, 2]
+    a23 = A[2, 3]
+    a24 = A[2, 4]
+    a25 = A[2, 5]
+    a34 = A[3, 4]
+    a45 = A[4, 5]
+    a53 = A[5, 3]
+    a54 = A[5, 4]
+    a55 = A[5, 5]
+    for j in range(N_S + 1):
+        m0 = M[0, j]
+        m1 = M[1, j]
+        m2 = M[2, j]
+        m3 = M[3, j]
+        m4 = M[4, j]
+        m5 = M[5, j]
+        K[0, j] = 0.0 + a01 * m1
+        K[1, j] = 0.0 + a11 * m1 + a12 * m2
+        K[2, j] = 0.0 + a20 * m0 + a21 * m1 + a22 * m2 + a23 * m3 + a24 * m4 + a25 * m5
+        K[3, j] = 0.0 + a34 * m4
+        K[4, j] = 0.0 + a45 * m5
+        K[5, j] = 0.0 + a53 * m3 + a54 * m4 + a55 * m5
     for i in range(N_S):
-        for j in range(N_S + 1):
-            acc = 0.0
-            for m in range(N_S):
-                acc += A[i, m] * M[m, j]
-            K[i, j] = acc
         K[i, N_S] += G[i]
 
 
@@ -332,14 +359,18 @@ def propagate(s, qc0, qc1, f_in, dt, t_knee, n_sub, prm, jac, q_valve, q_state, 
                 M[i, j] = M[i, j] + h / 6.0 * (K1[i, j] + 2.0 * (K2[i, j] + K3[i, j])
                                                + K4[i, j])
         # Phi <- Phi_i Phi, Gamma <- Phi_i Gamma + Gamma_i, Q_d <- Phi_i Q_d Phi_i^T + ...
+        # The products skip M[3:, :3] and M[3:, 6]: exact zeros (A[3:, :3] = 0, G[3:] = 0:
+        # the reference model does not see the plant), which leave the sums as they were (see
+        # _stage_tangent)
         for i in range(N_S):
+            m0 = 0 if i < N_X else N_X
             acc = M[i, N_S]
-            for j in range(N_S):
+            for j in range(m0, N_S):
                 acc += M[i, j] * Gam[j]
             gk[i] = acc
             for j in range(N_S):
                 a2 = 0.0
-                for m in range(N_S):
+                for m in range(m0, N_S):
                     a2 += M[i, m] * Phi[m, j]
                 W[i, j] = a2
         for i in range(N_S):
@@ -347,15 +378,17 @@ def propagate(s, qc0, qc1, f_in, dt, t_knee, n_sub, prm, jac, q_valve, q_state, 
             for j in range(N_S):
                 Phi[i, j] = W[i, j]
         for i in range(N_S):
+            m0 = 0 if i < N_X else N_X
             for j in range(N_S):
                 a2 = 0.0
-                for m in range(N_S):
+                for m in range(m0, N_S):
                     a2 += M[i, m] * Qd[m, j]
                 W[i, j] = a2
         for i in range(N_S):
             for j in range(N_S):
+                m0 = 0 if j < N_X else N_X
                 a2 = 0.0
-                for m in range(N_S):
+                for m in range(m0, N_S):
                     a2 += W[i, m] * M[j, m]
                 W2[i, j] = a2 + g0[i] * g0[j] * q_valve * h
             W2[i, i] += q_state[i] * h

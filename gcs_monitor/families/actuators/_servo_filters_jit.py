@@ -24,7 +24,7 @@ from gcs_monitor.models._servo_jit import ndi, propagate
 
 # this file calls the jitted functions of these files: see gcs_monitor.core.kernels
 KERNEL_DEPENDENCIES = {
-    "gcs_monitor.models._servo_jit": "255f750c0e04c4cd",
+    "gcs_monitor.models._servo_jit": "729cb11acdea8013",
     "gcs_monitor.filters._iotsekf_jit": "1ee067051d035b30",
     "gcs_monitor.filters._three_step_jit": "e27af0ed83669903",
 }

@@ -263,16 +263,18 @@ class _SurfaceFdi:
         self._axes = [(a, self.rms[a], self.conf[a], self.p[a].threshold, self.per_jitter[a],
                        servo_channel(surface, a), ESTIMATORS[a]) for a in AXES]
 
-    def step(self, t_us: int, row: list[float], statuses: list[ChannelStatus] | None
-             ) -> list[AlarmEvent]:
-        """Judge one output row (``O_*``, as Python floats) of the surface's filters."""
+    def step(self, t_us: int, row: list[float], statuses: list[ChannelStatus] | None,
+             row_array: np.ndarray | None = None) -> list[AlarmEvent]:
+        """Judge one output row (``O_*``, as Python floats) of the surface's filters
+        (``row_array``: the same row as an array, when the caller has it: the history copies
+        it faster than the floats)."""
         f_rod = row[O_F_ROD]
         # the output detector in sigmas of the RTS-EKF's own P^f (eq. 43): the rod sensor's
         # deviation from the nominal servo, or the rod-surface disagreement, the larger
         z_rod = f_rod / row[O_SF_ROD]
         z_d = (f_rod - row[O_F_SURF]) / row[O_SF_D]
         v_out = z_rod if abs(z_rod) >= abs(z_d) else z_d
-        self.hist.push(row)
+        self.hist.push(row if row_array is None else row_array)
         # the command's unknown profile as a rod spread: unseen samples (jit) and when a
         # change took effect inside the interval, whose effect the linearised timing noise
         # misses while the valve saturates (the envelope: uniform, sigma env / sqrt(12)); the
@@ -521,11 +523,16 @@ class ServoTier:
             return Verdict(FamilyStatus(self.name, t, False, reason=self._misfit))
         verdict = Verdict(FamilyStatus(self.name, t, True))
         statuses = verdict.channels if self.ctx.statuses else None
-        for rows in (*prediction.earlier, self._row_lists):
+        for rows in prediction.earlier:
             for fdi, row in zip(self._fdi, rows, strict=True):
                 ev = fdi.step(t, row, statuses)
                 if ev:
                     verdict.events += ev
+        # the newest sample: its rows are also self._rows (prediction.rows)
+        for fdi, row, row_array in zip(self._fdi, self._row_lists, self._rows, strict=True):
+            ev = fdi.step(t, row, statuses, row_array)
+            if ev:
+                verdict.events += ev
         return verdict
 
     def _check_lever(self) -> str:
