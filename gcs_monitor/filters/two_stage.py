@@ -538,20 +538,19 @@ class PackedTwoStage:
             self._new_block()
             i = 0
         self._next = i + 1
-        rows = self._rows
-        new_buf = rows[0][i]
-        out = rows[1][i]
+        (states, innovs, x_bar, P_bar, f, Pf, V, Qf, x, Px, gamma2, nu, S_diag,
+         test_ratio) = self._rows
+        new_buf = states[i]
         m = self.m
         code = kernel(buf, s.k, new_buf, *model_args, y, noise.Q, noise.R, cfg.adapt, dt_s,
-                      cfg.gate_sigma, self.window_n, out)
+                      cfg.gate_sigma, self.window_n, innovs[i])
         if code == 1:  # prediction failed (P^f not PD): as _step_compiled
             return _fail(s, np.full(m, np.nan), np.full((m, m), np.nan), cfg.gate_sigma)
-        innov = Innovation(nu=rows[11][i], S_diag=rows[12][i], test_ratio=rows[13][i],
+        innov = Innovation(nu=nu[i], S_diag=S_diag[i], test_ratio=test_ratio[i],
                            numerics_ok=code == 0)
         if code != 0:
             return s, innov
-        new = TwoStageState(x_bar=rows[2][i], P_bar=rows[3][i], f=rows[4][i], Pf=rows[5][i],
-                            V=rows[6][i], Qf=rows[7][i], x=rows[8][i], Px=rows[9][i],
-                            k=s.k + 1, gamma2=rows[10][i])
+        new = TwoStageState(x_bar=x_bar[i], P_bar=P_bar[i], f=f[i], Pf=Pf[i], V=V[i], Qf=Qf[i],
+                            x=x[i], Px=Px[i], k=s.k + 1, gamma2=gamma2[i])
         self._last = (new, new_buf)
         return new, innov

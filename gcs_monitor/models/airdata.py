@@ -30,6 +30,7 @@ of the equivalence test is ``tests/reference/airdata.py``.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -52,7 +53,7 @@ IT_VG, IT_THETA, IT_Q, IT_AX, IT_AZ, IT_Z = 0, 1, 2, 3, 4, 5
 IT_PHI, IT_BETA = 6, 7  # optional (ours): bank and sideslip, see :func:`lateral`
 
 
-def lateral(theta_p: Vec) -> tuple[float, float]:
+def lateral(theta_p: Vec | Sequence[float]) -> tuple[float, float]:
     """(phi, beta) of an 8-entry Theta, (0, 0) for Wan2018's 6-entry one.
 
     Wan2018's eqs. 12-15 are the wings-level, zero-sideslip forms of the exact longitudinal
@@ -66,7 +67,7 @@ def lateral(theta_p: Vec) -> tuple[float, float]:
 
     With phi = beta = 0 both reduce to the paper's terms exactly.
     """
-    if theta_p.shape[0] > IT_BETA:
+    if len(theta_p) > IT_BETA:
         return float(theta_p[IT_PHI]), float(theta_p[IT_BETA])
     return 0.0, 0.0
 
@@ -142,7 +143,7 @@ def _derivative(alpha: float, th: list[float], g_mps2: float) -> tuple[float, fl
     list; a 4-vector's numpy operations cost more than its arithmetic)."""
     vg, theta, q, ax, az = th[IT_VG], th[IT_THETA], th[IT_Q], th[IT_AX], th[IT_AZ]
     sa, ca = math.sin(alpha), math.cos(alpha)
-    g_a, g_v = _gravity_terms(alpha, theta, th[IT_PHI] if len(th) > IT_BETA else 0.0)
+    g_a, g_v = _gravity_terms(alpha, theta, lateral(th)[0])
     f_alpha = -ax * sa + az * ca + g_mps2 * g_a  # g cos(alpha - theta) at phi = 0
     f_v = ax * ca + az * sa + g_mps2 * g_v  # g sin(alpha - theta) at phi = 0
     return _div(f_alpha, vg) + q, f_v

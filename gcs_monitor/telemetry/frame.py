@@ -27,13 +27,15 @@ class ImuSample:
     omega_frd_radps: Vec3  # (3,) body rates, FRD
 
 
-def _slot_setters(cls: type) -> tuple[Any, ...]:
-    """The slot descriptors' setters of a frozen slots dataclass, in field order."""
+def slot_setters(cls: type) -> tuple[Any, ...]:
+    """The slot descriptors' setters of a frozen slots dataclass, in field order: the hot
+    paths build such objects with ``object.__new__`` and these (a frozen dataclass's
+    ``__init__`` sets each field through ``object.__setattr__``, more than twice the cost)."""
     return tuple(getattr(cls, f.name).__set__ for f in fields(cls))
 
 
 _new = object.__new__
-_IMU_SET = _slot_setters(ImuSample)
+_IMU_SET = slot_setters(ImuSample)
 
 
 def new_imu_sample(t_us: int, instance: int, acc_frd_mps2: Vec3,

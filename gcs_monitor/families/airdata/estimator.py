@@ -261,10 +261,10 @@ class AirDataEstimator:
         dt_s, y_pred = p.dt_s, p.y_pred
         residuals: dict[ChannelId, float] = {}
         aoa_pred, cas_pred = float(y_pred[IY_AOA]), float(y_pred[IY_CAS])
-        for i, v in enumerate(_floats(frame.aoa_rad)):
+        for i, v in enumerate(floats(frame.aoa_rad)):
             if math.isfinite(v):
                 residuals[self._channel("aoa", i)] = v - aoa_pred  # eq. 17
-        for i, v in enumerate(_floats(frame.cas_mps)):
+        for i, v in enumerate(floats(frame.cas_mps)):
             if math.isfinite(v):
                 residuals[self._channel("cas", i)] = v - cas_pred  # eq. 17
 
@@ -468,8 +468,9 @@ class _Prepared:
     y_pred: Vec | None = None  # h(x_hat_{k|k-1}, Theta_k); None at start-up or after a gap
 
 
-def _floats(x: Vec) -> list[float]:
-    """A Frame's per-instance array as a list of Python floats."""
+def floats(x: Vec) -> list[float]:
+    """A Frame's per-instance array as a list of Python floats (the family's per-sample code
+    works on these: numpy's per-call overhead exceeds the arithmetic for three instances)."""
     return cast(list[float], x.tolist()) if isinstance(x, np.ndarray) else [float(v) for v in x]
 
 

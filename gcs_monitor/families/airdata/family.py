@@ -20,12 +20,11 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Any
 
 import numpy as np
 
 from gcs_monitor.families.airdata.config import AirDataFamilyConfig
-from gcs_monitor.families.airdata.estimator import VIRTUAL_CAS, AirDataEstimator
+from gcs_monitor.families.airdata.estimator import VIRTUAL_CAS, AirDataEstimator, floats
 from gcs_monitor.families.airdata.weather import WeatherEstimator, wind_ned
 from gcs_monitor.families.base import AIRSPEED_CAS, FUSED, VIRTUAL, FamilyContext, Verdict
 from gcs_monitor.fdi.config import scheduled_threshold, set_params
@@ -37,11 +36,6 @@ from gcs_monitor.telemetry.frame import Frame
 
 SETS = ("aoa", "cas")
 RATE_HZ = (5.0, 100.0)  # air-data rates the Wan2018 model and windows are valid for
-
-
-def _floats(x: Any) -> list[float]:
-    """A Frame's per-instance array as a list of Python floats."""
-    return x.tolist() if isinstance(x, np.ndarray) else [float(v) for v in x]
 
 
 class AirDataFamily:
@@ -120,9 +114,9 @@ class AirDataFamily:
         for k, s in enumerate(SETS):
             mon = self.sets[s]
             raw, age = values[k]
-            m = _floats(raw)[:mon.n]
+            m = floats(raw)[:mon.n]
             valid = [math.isfinite(x) and a < stale
-                     for x, a in zip(m, _floats(age), strict=False)]
+                     for x, a in zip(m, floats(age), strict=False)]
             # eq. 17 against the prediction for this sample; update() steps on the eq. 19 fusion
             ref = prediction[k] if prediction is not None and math.isfinite(prediction[k]) \
                 else None
