@@ -14,7 +14,9 @@ modulo 256 exactly from the sequence numbers, so the count chosen is the one of 
 nearest to the time estimate: exact as long as the estimate is within 128 packets of the truth
 (at 1000 packets/s: a rate error below 128 / the burst length in ms). Only intervals that
 contain a sequence gap are corrected, so a sender that pauses is never counted as loss; a loss
-of exactly a multiple of 256 packets with no other gap stays invisible. Streams without a clock
+of exactly a multiple of 256 packets with no other gap stays invisible; such an interval (the
+clock ahead of the packets by half the sequence space or more, no gap) is also left out of the
+rate, which would otherwise read low and misjudge the next bursts. Streams without a clock
 keep the modular count.
 """
 
@@ -279,7 +281,14 @@ class LinkStats:
                         self.reordered -= st.n_back
                         st.last = seq
                     st.lost_int = lost
-            st.win_sent += st.n_int + st.lost_int
+            if not st.gap_int and st.rate > 0.0 and st.rate * dc - st.n_int >= SEQ_HALF:
+                # the clock says half the sequence space or more went unsent or unseen and the
+                # sequence numbers show no gap: a pause of the sender or a lost run of a
+                # multiple of 256 (the blind spot above). Either way not a sample of the rate:
+                # counted as sending, it would lower the rate that bounds the next bursts
+                st.win_clk += dc
+            else:
+                st.win_sent += st.n_int + st.lost_int
             st.clk = clk
             if clk - st.win_clk >= RATE_WINDOW_MS:
                 st.rate = st.win_sent / (clk - st.win_clk)

@@ -34,7 +34,7 @@ def _stream(n: int) -> list[bytes]:
 
 
 def _loss(packets: list[bytes], drops: list[tuple[int, int]]) -> tuple[int, int, int, int]:
-    dropped = set()
+    dropped: set[int] = set()
     for start, length in drops:
         dropped.update(range(start, start + length))
     d = Decoder()
@@ -70,8 +70,13 @@ def test_before_the_rate_is_known_the_modular_count_is_kept() -> None:
 
 def test_kernel_drops_under_a_udp_flood_are_counted_and_loss_is_exact() -> None:
     """A sender floods 60 000 datagrams at a receiver with a tiny socket buffer: the kernel
-    drops most of them. Every drop is counted (SO_RXQ_OVFL), and the loss counted from the
-    sequence numbers (with the clock bound) equals what was sent minus what was decoded."""
+    drops most of them. Every drop is counted (SO_RXQ_OVFL). The loss counted from the sequence
+    numbers with the clock bound is what was sent minus what was decoded, up to the blind spot
+    link/stats.py documents: a clock interval that lost a multiple of 256 packets and nothing
+    else reads as no loss, and it also lowers the measured rate that later intervals are bounded
+    with. Which datagrams the kernel drops is up to it (1 flood in 20 or so hits the blind spot
+    on a loaded machine), so the count is checked as exact modulo 256 (every interval's is) and
+    within 5 % of the truth, where the modular count alone misses most of it."""
     warm, flood, tail = 4_400, 60_000, 400
     n = warm + flood + tail
     src = UdpSource("127.0.0.1", 0, listen=True, rcvbuf_bytes=4096)
@@ -116,8 +121,10 @@ def test_kernel_drops_under_a_udp_flood_are_counted_and_loss_is_exact() -> None:
     arrived = chunks + src.dropped_chunks  # what the kernel handed over
     assert src.kernel_drops == n - arrived > 10_000  # exact: every datagram is accounted for
     assert decoded == chunks
-    assert st.lost == n - decoded  # the sequence-based loss, bursts of > 256 included
-    assert st.lost_wrapped > 0 and st.reordered == 0
+    truth = n - decoded
+    assert (truth - st.lost) % 256 == 0  # the sequence numbers' part is exact
+    assert abs(truth - st.lost) <= 0.05 * truth  # the bursts of > 256: the clock bound
+    assert st.lost_wrapped > truth // 2 and st.reordered == 0
     dec.note_source(src)
     assert dec.counters.kernel_drops == src.kernel_drops
 
