@@ -57,7 +57,8 @@ def summarise(r: FleetResult, workers: int, *, where: str) -> dict[str, object]:
     final_lag = max((max(lag for w, lag in v if w <= t_end_send + 1.0) for v in by_worker.values()
                      if any(w <= t_end_send + 1.0 for w, _ in v)), default=float("nan"))
     half = r.t0_wall_s + DURATION_S / r.speed / 2
-    growth = max((max((lag for w, lag in v if w >= half), default=0.0)
+    # growth over the second half of sending (after it, the sender's time stands still)
+    growth = max((max((lag for w, lag in v if half <= w <= t_end_send + 1.0), default=0.0)
                   - max((lag for w, lag in v if w < half), default=0.0))
                   for v in by_worker.values()) if by_worker else float("nan")
     raw_dropped = max((st.get("raw_dropped") or 0 for st in r.status_log), default=0)
@@ -70,13 +71,16 @@ def summarise(r: FleetResult, workers: int, *, where: str) -> dict[str, object]:
     cpu_per_vs, mem_per_v = [], []
     for k in range(workers):
         name = f"w{k}"
-        pts = [(s["t_s"], s[name]) for s in r.samples if name in s]
+        pts = [(s["t_s"], s[name], s["wall_s"]) for s in r.samples if name in s]
         steady = [p for p in pts if WARM_S <= p[0] <= DURATION_S / r.speed]
         owned = _owned(r, name)
         if len(steady) >= 2 and owned:
             dt = steady[-1][0] - steady[0][0]
             cpu = steady[-1][1]["cpu_s"] - steady[0][1]["cpu_s"]
-            cpu_per_vs.append(cpu / (dt * r.speed * owned))
+            # per vehicle-second the worker processed (its watermarks), not sent: a worker
+            # that falls behind processes less than the wall clock passes
+            done = _processed_vs(r, name, steady[0][2], steady[-1][2])
+            cpu_per_vs.append(cpu / (done if done else dt * r.speed * owned))
             mem_per_v.append((steady[-1][1]["rss_mb"] - pts[0][1]["rss_mb"]) / owned)
     cpu_v = statistics.mean(cpu_per_vs) if cpu_per_vs else float("nan")
     drops = (kernel or 0) + (queue or 0) + raw_dropped
@@ -93,6 +97,18 @@ def summarise(r: FleetResult, workers: int, *, where: str) -> dict[str, object]:
         "kernel_drops": kernel, "bridge_queue_drops": queue, "worker_inbox_drops": raw_dropped,
         "load_avg_1min": round(os.getloadavg()[0], 1),
     }
+
+
+def _processed_vs(r: FleetResult, worker: str, wall_a: float, wall_b: float) -> float | None:
+    """Vehicle-seconds ``worker`` processed between two wall times: the advance of its
+    vehicles' watermarks in its last statuses before each (None: no status before ``wall_a``)."""
+    mine = [st for st in r.status_log if st.get("worker") == worker and st.get("watermarks")]
+    before_a = [st for st in mine if st["recv_wall_s"] <= wall_a]
+    before_b = [st for st in mine if st["recv_wall_s"] <= wall_b]
+    if not before_a or not before_b:
+        return None
+    a, b = before_a[-1]["watermarks"], before_b[-1]["watermarks"]
+    return sum(b[s] - a[s] for s in b if s in a) * 1e-6 or None
 
 
 def _owned(r: FleetResult, worker: str) -> int:

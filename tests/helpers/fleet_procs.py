@@ -171,6 +171,7 @@ class FleetResult:
     n: int
     speed: float
     kill_wall_s: float | None
+    duration_us: int | None = None  # the sender's last vehicle time (None: not known)
     samples: list[dict[str, Any]] = field(default_factory=list)  # per worker, every 2 s
     health: dict[str, Any] = field(default_factory=dict)
     statuses: dict[str, Any] = field(default_factory=dict)
@@ -186,7 +187,10 @@ class FleetResult:
         return ((sysid - 1) * 137 % 5000) * 1e-6
 
     def sent_vehicle_time_s(self, wall_s: float) -> float:
-        return (wall_s - self.t0_wall_s) * self.speed
+        """Vehicle time the sender had reached at ``wall_s``: it stops at the flight's end (a lag
+        measured after that would grow with the wall clock while nothing is sent)."""
+        t = (wall_s - self.t0_wall_s) * self.speed
+        return t if self.duration_us is None else min(t, self.duration_us * 1e-6)
 
     def lags_s(self) -> list[tuple[float, str, float]]:
         """(wall time, worker, its worst vehicle's lag behind the sender, s) per status."""
@@ -292,7 +296,7 @@ def run_fleet(tmp: Path, templates: Path, *, n: int, workers: int, duration_s: f
     t0 = json.loads(t0_file.read_text())
     logs = {p.name: p.read_text(errors="replace") for p in tmp.glob("*.log")}
     return FleetResult(alarms=alarms, status_log=status_log, t0_wall_s=t0["t0_wall_s"],
-                       onsets=tuple(t0["onsets"]),
+                       onsets=tuple(t0["onsets"]), duration_us=t0.get("duration_us"),
                        n=n, speed=speed, kill_wall_s=kill_wall, samples=samples,
                        health=health, statuses=statuses, bridge_out=logs.get("bridge.log", ""),
                        sender_out=logs.get("sender.log", ""), logs=logs)
