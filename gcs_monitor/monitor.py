@@ -344,6 +344,7 @@ class Monitor:
         if v.pipeline is None:
             v.out = _BookSink(v.book, list(self.sinks_for(v.sysid)))
             v.pipeline = self._new_pipeline(v.sysid, v.out)
+            v.assembler.interp_error = v.pipeline.reads_interp_error
             v.link_alarms = LinkAlarmMonitor(params=self.cfg.link, vehicle=v.sysid,
                                              alarm=self.cfg.alarms)
             v.signing_alarm = AlarmStateMachine(ChannelId("link", v.sysid, "signature"),
@@ -405,6 +406,7 @@ class Monitor:
                 # flight (whose held frames came first): new families with the same sinks
                 assert v.out is not None
                 pipe = v.pipeline = self._new_pipeline(v.sysid, v.out)
+                v.assembler.interp_error = pipe.reads_interp_error
                 # the new families must confirm the alarms still active (no second raise);
                 # the link alarms keep their own state machines
                 v.book.inherit(v.book.active(), watermark_us=None, reason="reboot",

@@ -57,6 +57,10 @@ class VehiclePipeline:
         self.active: dict[tuple[ChannelId, str], AlarmEvent] = {}
         # each family's account of its latest sample (Frames without one do not replace it)
         self.status: dict[str, FamilyStatus] = {}
+        # whether a family reads Frame.gps_interp_err_ned_mps (the assembler computes it only
+        # then: it is the cost of the IMU samples of every GPS interval)
+        self.reads_interp_error = any(getattr(f, "reads_interp_error", False)
+                                      for f in self.families)
 
     def step(self, frame: Frame, extra_events: Sequence[AlarmEvent] = ()) -> StepOutput:
         """Run one Frame through the families and the sinks; ``extra_events`` (link alarms) are

@@ -36,7 +36,8 @@ Timing conventions (all vehicle time, integer µs, from ``time_usec``/``time_boo
   int_0^tau a``, specific force rotated by each frame's attitude). In a manoeuvre with a 1 Hz
   GPS the linear interpolation is off by up to 0.2 m/s; a constant accelerometer bias cancels.
   It needs the IMU samples of the whole interval, which the frames held in mode "aligned" (R =
-  one GPS period) provide; None when they do not cover it.
+  one GPS period) provide; None when they do not cover it, and never computed when no family
+  reads it (``FrameAssembler(interp_error=False)``: the Monitor asks the IMU family).
 
 **Held IMU samples.** An IMU sample whose six values (specific force and rates) repeat the
 previous sample of the same instance bit for bit is a value the sender held (a stream resampled
@@ -176,8 +177,10 @@ class FrameAssembler:
     def __init__(self, *, config: Any = None, stats: LinkStats | None = None,
                  gps_delay_us: int | None = None, align_delay_us: int | None = None,
                  stale_after_s: float | None = None, primary_imu: int | None = None,
-                 max_pending: int = MAX_PENDING) -> None:
+                 max_pending: int = MAX_PENDING, interp_error: bool = True) -> None:
         self.stats = stats if stats is not None else LinkStats(0)
+        # Frame.gps_interp_err_ned_mps is computed only for a reader (imu_ts's gps_imu_shape)
+        self.interp_error = interp_error
         d_s = getattr(config, "gps_delay_s", DEFAULT_GPS_DELAY_S)
         self.gps_delay_us = int(gps_delay_us if gps_delay_us is not None else round(d_s * 1e6))
         stale_s = stale_after_s if stale_after_s is not None else getattr(
@@ -998,7 +1001,8 @@ class FrameAssembler:
         fix_ok = self._gps_fix < 0 or self._gps_fix >= GPS_FIX_3D
         f.gps_vel_ned_mps = g.vel_ned_mps if fix_ok else None
         f.gps_held = g.vel_ned_mps is not None and not g.interpolated
-        if g.interpolated and g.base is not None and g.upper is not None and fix_ok:
+        if g.interpolated and g.base is not None and g.upper is not None and fix_ok \
+                and self.interp_error:
             f.gps_interp_err_ned_mps = self._interp_error(g.base.t_us, g.upper.t_us,
                                                           f.t_us - lag)
         f.gps_fix = self._gps_fix

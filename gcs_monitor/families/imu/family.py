@@ -119,6 +119,9 @@ class ImuFamily:
                 self._est.append(_Judged(ImuTwoStageEstimator(cfg.ts.estimator), cfg.ts.fdi))
             if cfg.hosm.enabled:
                 self._est.append(_Judged(ImuHosmEstimator(cfg.hosm.estimator), cfg.hosm.fdi))
+        # Frame.gps_interp_err_ned_mps is computed by the assembler only when this is True
+        self.reads_interp_error = any(getattr(j.estimator, "reads_interp_error", False)
+                                      for j in self._est)
         self._period = SamplePeriod()  # of the primary IMU's new samples (effective rate)
         self._estimates: list[Estimate] = []
         self._held = False  # this Frame's primary IMU sample is a held (repeated) value

@@ -183,6 +183,9 @@ class ImuTwoStageEstimator:
         if self.cfg.model not in ("gs", "as"):
             raise ValueError(f"ImuTsConfig.model must be 'gs' or 'as', got {self.cfg.model!r}")
         self.name = "imu_ts" if self.cfg.model == "gs" else "imu_ts_as"
+        # the GS-KM reads Frame.gps_interp_err_ned_mps (gps_imu_shape); the assembler computes
+        # it only when some estimator does
+        self.reads_interp_error = self.cfg.model == "gs" and self.cfg.gps_imu_shape
         nz = self.cfg.noise
         sig_u = [nz.acc_sigma_mps2] * 3 + [nz.gyro_sigma_radps] * 3
         if self.cfg.model == "gs":

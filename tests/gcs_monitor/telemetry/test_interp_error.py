@@ -5,7 +5,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from gcs_monitor.config import MonitorConfig
+from gcs_monitor.config.loader import config_from_dict
 from gcs_monitor.link.decode import Decoder
+from gcs_monitor.monitor import Monitor
 from gcs_monitor.telemetry.assembler import FrameAssembler
 from tests.helpers.mavgen import G0, MavGen
 
@@ -22,9 +25,9 @@ class _Jerk(MavGen):
         return (0.0, 0.0, 0.0)
 
 
-def _frames(gps_hz: int) -> dict[int, object]:
+def _frames(gps_hz: int, *, interp_error: bool = True) -> dict[int, object]:
     d = Decoder()
-    a = FrameAssembler.aligned(None, d.vehicle_stats(1))
+    a = FrameAssembler.aligned(None, d.vehicle_stats(1), interp_error=interp_error)
     out = []
     for _, p in _Jerk(gps_rate_hz=gps_hz, n_imu=1).packets(6.0):
         for m in d.feed(p, 0.0):
@@ -50,6 +53,23 @@ def test_ten_hz_gps_error_is_a_hundred_times_smaller():
     f = _frames(10)
     np.testing.assert_allclose(f[9_050_000].gps_interp_err_ned_mps, [0.0025, -0.0025, 0.0],
                                atol=1e-5)
+
+
+def test_computed_only_when_a_family_reads_it():
+    # FDI-only monitors (no imu_ts with gps_imu_shape) skip the IMU chords of every GPS interval
+    f = _frames(1, interp_error=False)
+    assert all(fr.gps_interp_err_ned_mps is None for fr in f.values())  # type: ignore[attr-defined]
+    assert any(fr.gps_vel_ned_mps is not None for fr in f.values())  # type: ignore[attr-defined]
+    fdi = MonitorConfig().with_family("airdata", estimator="none")
+    for name in ("imu", "yaw_rate", "actuators"):
+        fdi = fdi.with_family(name, enabled=False)
+    no_shape = config_from_dict({"imu": {"ts": {"estimator": {"gps_imu_shape": False}}}})
+    for cfg, reads in ((MonitorConfig(), True), (fdi, False), (no_shape, False)):
+        mon = Monitor(cfg)
+        for _, p in _Jerk(gps_rate_hz=1, n_imu=1).packets(3.0):
+            mon.feed(p)
+        (v,) = mon.vehicles.values()
+        assert v.pipeline is not None and v.assembler.interp_error is reads
 
 
 def test_flat_dcm_and_stacked_matmul_are_bit_identical_to_dcm_ned_frd():
