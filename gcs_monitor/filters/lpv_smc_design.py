@@ -2,7 +2,8 @@
 
 The controller runs in the simulator (``sim_vehicle/autopilot/smc_lateral.py``); this module
 gives it its matrices and the closed-loop L2-gain bound of eq. 58. The tracking form
-(eqs. 27-33) comes from :mod:`gcs_monitor.models.lateral_tracking`, the LMI helpers and the
+(eqs. 27-33) comes from :mod:`gcs_monitor.models.lateral_tracking` (taken here through the
+:class:`TrackingForm` protocol), the LMI helpers and the
 bounded-real-lemma design from :mod:`gcs_monitor.filters.lpv_smo_design`.
 
 * **Sliding surface** ``N`` (Assumption 4.1, Remark 4.1): with ``x^ = [x^_1; x^_2]`` split at
@@ -31,7 +32,7 @@ import importlib
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 import scipy.linalg
@@ -39,7 +40,24 @@ import scipy.linalg
 from gcs_monitor.core.types import Mat
 from gcs_monitor.filters.lpv_smo import partition
 from gcs_monitor.filters.lpv_smo_design import ClosedLoopBlock, he, solve
-from gcs_monitor.models.lateral_tracking import TrackingForm
+
+
+class TrackingForm(Protocol):
+    """The regular form at one scheduling point (Chen2020 eqs. 27-33), as
+    :class:`gcs_monitor.models.lateral_tracking.TrackingForm` gives it (filters know no model:
+    the layer contract keeps them apart)."""
+
+    @property
+    def A_t(self) -> Mat: ...  # (l+n, l+n) A~_c
+
+    @property
+    def B_2(self) -> Mat: ...  # (l, m)
+
+    @property
+    def T_c(self) -> Mat: ...  # (l+n, l+n)
+
+    @property
+    def n1(self) -> int: ...  # l+n-l: the size of x^_1
 
 
 def split(form: TrackingForm) -> tuple[Mat, Mat]:
@@ -138,7 +156,7 @@ def sliding_blocks(forms: Sequence[TrackingForm], N: Mat, faulty: Sequence[int],
         n = f.A_t.shape[0] - l_
         Mc = f.T_c @ np.vstack([np.zeros((l_, M_p.shape[1])), M_p])
         Tn_inv = np.linalg.inv(f.T_c[l_:, l_:])
-        C = Tn_inv @ np.vstack([np.eye(n1), -N])[l_:]  # [0 T_n^-1] [I; -N]
+        C = np.asarray(Tn_inv @ np.vstack([np.eye(n1), -N])[l_:], dtype=np.float64)  # eq. 57
         assert C.shape == (n, n1)
         out.append(ClosedLoopBlock(reduced_matrix(f, N), (f.A_t @ Ht + Hc)[:n1], Mc[:n1], C,
                                    Hp))

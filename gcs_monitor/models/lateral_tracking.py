@@ -80,7 +80,7 @@ class TrackingForm:
     @property
     def n1(self) -> int:
         """Size of ``x^_1`` (Chen2020 eq. 49): the state minus the ``l`` virtual-control ones."""
-        return self.A_t.shape[0] - self.B_2.shape[0]
+        return int(self.A_t.shape[0] - self.B_2.shape[0])
 
 
 def tracking_form(A_p: Mat, B_p: Mat, C_c: Mat = C_C_LATERAL,
