@@ -42,17 +42,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from gcs_monitor.core.types import Mat, Vec
 from gcs_monitor.models.lateral import RHO0_KGPM3, LateralLpv, rho_of
-from gcs_monitor.models.lateral_tracking import (
-    B_VP_LATERAL,
-    C_C_LATERAL,
-    TrackingForm,
-    tracking_form,
-)
+from gcs_monitor.models.lateral_tracking import B_VP_LATERAL, C_C_LATERAL, tracking_form
 from sim_vehicle.autopilot.loops import ROLL_RATE_MARGIN, Autopilot, Feedback, Targets
 from sim_vehicle.autopilot.trim import Trim
 from sim_vehicle.dynamics.airframe import Airframe
@@ -98,22 +94,20 @@ class SmcGains:
         """``S = [N I_l]`` (Chen2020 eq. 39)."""
         return np.hstack([self.N, np.eye(self.N.shape[0])])
 
-    def to_dict(self) -> dict[str, object]:
+    def to_dict(self) -> dict[str, Any]:
         return {"N": self.N.tolist(), "Phi": self.Phi.tolist(), "P2": self.P2.tolist(),
                 "modulation": self.modulation, "delta": self.delta,
                 "prefilter_s": list(self.prefilter_s), "C_c": self.C_c.tolist(),
                 "B_vp": self.B_vp.tolist()}
 
     @staticmethod
-    def from_dict(d: dict[str, object]) -> SmcGains:
+    def from_dict(d: dict[str, Any]) -> SmcGains:
         def arr(k: str) -> Mat:
             return np.asarray(d[k], dtype=np.float64)
 
-        pre = d["prefilter_s"]
-        assert isinstance(pre, list)
-        return SmcGains(arr("N"), arr("Phi"), arr("P2"), float(str(d["modulation"])),
-                        float(str(d["delta"])), tuple(float(x) for x in pre), arr("C_c"),
-                        arr("B_vp"))
+        return SmcGains(arr("N"), arr("Phi"), arr("P2"), float(d["modulation"]),
+                        float(d["delta"]), tuple(float(x) for x in d["prefilter_s"]),
+                        arr("C_c"), arr("B_vp"))
 
 
 def affine_forms(model: LateralLpv, C_c: Mat, B_vp: Mat) -> tuple[list[Mat], list[Mat], Mat]:
@@ -161,11 +155,6 @@ class LateralSmc:
         self.s = np.zeros(l_)
         self.v = np.zeros(l_)
         self.saturated = False
-
-    def form(self, eas_mps: float) -> TrackingForm:
-        """The regular form at ``eas_mps`` (for analysis and tests)."""
-        A, B, _ = self.model.matrices(eas_mps)
-        return tracking_form(A, B, self.gains.C_c, self.gains.B_vp)
 
     def update(self, x_p: Vec, eas_mps: float, R_c: Vec, dt_s: float,
                rate_max: Vec | None = None) -> Vec:

@@ -41,6 +41,8 @@ from gcs_monitor.evaluation.configs import family_alone
 from gcs_monitor.evaluation.papers.chen2020_design import (
     ENVELOPES,
     closed_loop_bounds,
+    design_text,
+    make_smc,
     write_design,
 )
 from gcs_monitor.evaluation.report import md_table, pyplot, write_csv
@@ -275,8 +277,6 @@ def chen2020_design(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
     closed-loop bound of eq. 58 with the PID autopilot and with Chen2020's sliding-mode
     controller (its LMI design, :mod:`~gcs_monitor.evaluation.papers.chen2020_smc`)."""
 
-
-    from gcs_monitor.evaluation.papers.chen2020_smc import design_text, make_smc
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)

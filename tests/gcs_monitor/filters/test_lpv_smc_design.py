@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gcs_monitor.evaluation.papers.chen2020_smc import (
+from gcs_monitor.evaluation.papers.chen2020_design import (
     EQ60,
     SmcParams,
     make_smc,

@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from gcs_monitor.evaluation.papers.chen2020_smc import SmcFactory, make_smc
+from gcs_monitor.evaluation.papers.chen2020_design import SmcFactory, make_smc
 from gcs_monitor.families.yaw_rate.design import load_design
 from sim_vehicle.autopilot.loops import Autopilot
 from sim_vehicle.autopilot.smc_lateral import LateralSmc, SmcAutopilot, SmcGains
