@@ -24,6 +24,7 @@ from gcs_monitor.evaluation.papers import (
     actuators_alfa,
     atmaca2025,
     chen2020,
+    chen2020_smc,
     imu_detection,
     lu2016,
     lu2016_real,
@@ -41,6 +42,7 @@ SIMULATED: tuple[Callable[[], dict[str, Experiment]], ...] = (
     sim_checks.experiments, lu2016.experiments, atmaca2025.experiments,
     imu_detection.experiments, wan2018.experiments, campaign.experiments,
     robustness.experiments, lu2017.experiments, chen2020.experiments,
+    chen2020_smc.experiments,
     actuators.experiments)
 REAL_DATA: tuple[Callable[[], dict[str, RealDataExperiment]], ...] = (
     lu2016_real.real_data_experiments, wan2018_real.real_data_experiments,

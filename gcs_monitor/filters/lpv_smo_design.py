@@ -47,12 +47,15 @@ from gcs_monitor.filters.lpv_smo import partition
 @dataclass(frozen=True, slots=True)
 class ClosedLoopBlock:
     """The controller's closed loop at one scheduling point, for the design of Chen2020
-    eq. 58: ``x_c' = A_c x_c + H_c e_f + M_c xi``, ``x_p = C_c x_c``."""
+    eq. 58: ``x_c' = A_c x_c + H_c e_f + M_c xi``, ``x_p = C_c x_c + D_f e_f`` (``D_f``: the
+    sliding-mode controller's reduced-order motion, where the corrected rate is a state of the
+    sliding surface, Chen2020 eq. 57; None = 0)."""
 
     A_c: Mat  # (nc, nc)
     H_c: Mat  # (nc, q)
     M_c: Mat  # (nc, k)
     C_c: Mat  # (n, nc)
+    D_f: Mat | None = None  # (n, q)
 
 
 @dataclass(frozen=True, slots=True)
@@ -64,8 +67,20 @@ class LmiResult:
     solver: str
 
 
-def _he(X: Any) -> Any:
+def he(X: Any) -> Any:
+    """``He(X) = X + X^T`` of a cvxpy expression or an array."""
     return X + X.T
+
+
+def solve(prob: Any, solver: str) -> str:
+    """Solve a cvxpy problem with ``solver`` (Clarabel), SCS when it gives up; the solver used."""
+    cp: Any = importlib.import_module("cvxpy")
+    try:
+        prob.solve(solver=solver)
+    except cp.error.SolverError:  # Clarabel gave up: the first-order solver
+        solver = "SCS"
+        prob.solve(solver=solver, eps=1e-9, max_iters=200_000)
+    return solver
 
 
 def design_l1(A_vertices: Sequence[Mat], faulty: Sequence[int], A_f: Mat, M_p: Mat, *,
@@ -111,11 +126,11 @@ def design_l1(A_vertices: Sequence[Mat], faulty: Sequence[int], A_f: Mat, M_p: M
         PA11 = p1 * blk["A11"] + Y @ blk["A211"]  # P_1 A~_11
         PM1 = p1 * M1 + Y @ M2  # P_1 M~_1
         if decay > 0.0:
-            cons.append(_he(PA11) + 2.0 * decay * p1 * Iq << 0)
+            cons.append(he(PA11) + 2.0 * decay * p1 * Iq << 0)
         if closed_loop is None:
             # BRL on xi -> e_f: [[He(P A), -P M, C^T], [., -g I, 0], [C, 0, -g I]] < 0
             lmi = cp.bmat([
-                [_he(PA11), -PM1, out_f.T],
+                [he(PA11), -PM1, out_f.T],
                 [-PM1.T, -g * np.eye(k), np.zeros((k, q))],
                 [out_f, np.zeros((q, k)), -g * Iq]])
         else:
@@ -124,20 +139,18 @@ def design_l1(A_vertices: Sequence[Mat], faulty: Sequence[int], A_f: Mat, M_p: M
             # state [x_c; e~_1], e_f = out_f e~_1; xi enters x_c by M_c and e~_1 by -M~_1
             top = Pc @ cl.A_c
             cross = Pc @ cl.H_c @ out_f  # (nc, q)
+            Df = (cl.D_f @ out_f if cl.D_f is not None
+                  else np.zeros((cl.C_c.shape[0], q)))  # x_p's direct term in e~_1
             lmi = cp.bmat([
-                [_he(top), cross, Pc @ cl.M_c, cl.C_c.T],
-                [cross.T, _he(PA11), -PM1, np.zeros((q, cl.C_c.shape[0]))],
+                [he(top), cross, Pc @ cl.M_c, cl.C_c.T],
+                [cross.T, he(PA11), -PM1, Df.T],
                 [(Pc @ cl.M_c).T, -PM1.T, -g * np.eye(k), np.zeros((k, cl.C_c.shape[0]))],
-                [cl.C_c, np.zeros((cl.C_c.shape[0], q)), np.zeros((cl.C_c.shape[0], k)),
+                [cl.C_c, Df, np.zeros((cl.C_c.shape[0], k)),
                  -g * np.eye(cl.C_c.shape[0])]])
         sym = 0.5 * (lmi + lmi.T)
         cons.append(sym << -eps * np.eye(sym.shape[0]))
     prob = cp.Problem(cp.Minimize(g), cons)
-    try:
-        prob.solve(solver=solver)
-    except cp.error.SolverError:  # Clarabel gave up: the first-order solver
-        solver = "SCS"
-        prob.solve(solver=solver, eps=1e-9, max_iters=200_000)
+    solver = solve(prob, solver)
     if p1.value is None or g.value is None:
         return LmiResult(np.full((q, n - q), math.nan), math.nan, math.nan, str(prob.status),
                          solver)

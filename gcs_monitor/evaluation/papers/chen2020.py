@@ -41,6 +41,8 @@ from gcs_monitor.evaluation.configs import family_alone
 from gcs_monitor.evaluation.papers.chen2020_design import (
     ENVELOPES,
     closed_loop_bounds,
+    design_text,
+    make_smc,
     write_design,
 )
 from gcs_monitor.evaluation.report import md_table, pyplot, write_csv
@@ -211,25 +213,33 @@ class LateralGyroInTheLoop:
         return dataclasses.replace(st, omega_frd_radps=wc)
 
 
-def ftc_run(sc: Scenario, mode: str, *, sensor: str = "r") -> dict[str, np.ndarray]:
+def ftc_run(sc: Scenario, mode: str, *, sensor: str = "r",
+            autopilot: Callable[[Any], Any] | None = None) -> dict[str, np.ndarray]:
     """Fly ``sc`` closed loop in ``mode`` (:data:`FTC_MODES`): true roll and sideslip with their
-    commands per step, and the observer's fault estimate (corrected mode)."""
+    commands per step, and the observer's fault estimate (corrected mode). ``autopilot``: a
+    factory of the autopilot from the simulation (Chen2020's sliding-mode controller,
+    :mod:`~gcs_monitor.evaluation.papers.chen2020_smc`); None = the simulator's PID autopilot.
+    With an autopilot that has ``smc``, ``s`` holds ``||s^||`` per step (rad/s)."""
 
     faults = sc.faults if mode != "fault-free" else ()
     hook = LateralGyroInTheLoop(faults, sc.seed, corrected=mode == "corrected", sensor=sensor)
     sim: Any = make_simulation(sc)
     sim.feedback = hook
+    if autopilot is not None:
+        sim.autopilot = autopilot(sim)
+    smc = getattr(sim.autopilot, "smc", None)
     n = round(sc.duration_s / sc.dt_s)
-    out = np.zeros((n, 5))
+    out = np.zeros((n, 6))
     for k in range(n):
         st = sim.step()
         tg = sim.manoeuvre.targets(st.t_s, sim._fb)
         out[k] = (st.t_s, st.euler_rad[0], st.ssa_rad,
-                  tg.bank_rad if tg.bank_rad is not None else math.nan, tg.beta_rad)
+                  tg.bank_rad if tg.bank_rad is not None else math.nan, tg.beta_rad,
+                  float(np.linalg.norm(smc.s)) if smc is not None else math.nan)
     est = np.array(hook.rows) if hook.rows else np.zeros((0, 4))
     return {"t": out[:, 0], "phi": out[:, 1], "beta": out[:, 2], "phi_c": out[:, 3],
-            "beta_c": out[:, 4], "est_t": est[:, 0], "f_hat": est[:, 1], "f": est[:, 2],
-            "e_y": est[:, 3]}
+            "beta_c": out[:, 4], "s": out[:, 5], "est_t": est[:, 0], "f_hat": est[:, 1],
+            "f": est[:, 2], "e_y": est[:, 3]}
 
 
 
@@ -263,17 +273,21 @@ def _rms(x: np.ndarray) -> float:
 
 def chen2020_design(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
     """LPV fit of the simulator's lateral dynamics (eq. 59) and the LMI design of L_1 with its
-    L2-gain bound, per airframe and gyro axis; compared with the shipped design files."""
+    L2-gain bound, per airframe and gyro axis; compared with the shipped design files; the
+    closed-loop bound of eq. 58 with the PID autopilot and with Chen2020's sliding-mode
+    controller (its LMI design, :mod:`~gcs_monitor.evaluation.papers.chen2020_smc`)."""
 
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     fit_rows, lmi_rows = [], []
     cl_rows: list[list[Any]] = []
+    smc_text = ""
     for af in ENVELOPES:
         path, bands = write_design(af, out_dir)
         if af == "transport":
             cl_rows = closed_loop_bounds(af, bands[0])
+            smc_text = design_text(bands[0], *make_smc(bands[0]))
         stored = load_bands(af)
         env = ENVELOPES[af]
         for d, st, (centre, lo_m, hi_m) in zip(bands, stored, env.bands_m, strict=True):
@@ -309,7 +323,7 @@ def chen2020_design(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
             "transport, 6 trim speeds, common P; Chen2020 reports 1.2918 with its sliding-mode "
             "controller):\n\n"
             + md_table(["uncertainty xi", "L_1", "L2-gain bound xi -> x_p", "c_1 = 1/gamma",
-                        "status"], cl_rows) + "\n")
+                        "status"], cl_rows) + "\n\n" + smc_text)
 
 
 def _ftc_job(job: tuple[str, str, str]) -> dict[str, np.ndarray]:

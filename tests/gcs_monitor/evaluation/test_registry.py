@@ -28,6 +28,7 @@ NAMES = {
     "actuators_sim", "actuators_alfa", "triplex_actuators",
     # the campaign's false alarms examined: the defaults' raises, the yaw-rate altitude bands
     "wan2018_campaign_defaults", "chen2020_altitudes",
+    "chen2020_smc",  # issue 18: Chen2020's sliding-mode controller
 }
 
 
