@@ -841,8 +841,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--idle-timeout", type=float, help="stop after this long without data (s)")
     s.add_argument("--speed", type=float, help="replay speed of a .tlog (default: as fast as "
                                                  "possible)")
-    s.add_argument("--flush-ms", type=float, default=10.0,
-                   help="a vehicle's frames wait at most this long to be sent together (10)")
+    s.add_argument("--flush-ms", type=float, default=20.0,
+                   help="a vehicle's frames wait at most this long to be sent together (20; "
+                        "fewer, larger samples cost the workers less)")
     _add_signing_args(s)
     _add_zenoh_args(s, listen_default="none", connect_default=DEFAULT_ZENOH,
                     mode_default="client")

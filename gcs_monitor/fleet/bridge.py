@@ -3,9 +3,15 @@
 The bridge decodes what it reads with the monitor's decoder (so CRC errors, garbage, duplicates,
 kernel drops and, with a key, unsigned, forged and replayed packets are counted and never
 forwarded), groups the accepted frames by sender and publishes each sender's frames as one
-Zenoh sample when ``flush_s`` has passed since the first one waiting or ``max_batch`` bytes
-are waiting, and at once when nothing else is queued (low latency when idle, few samples under
-load). Frames of a ground station (system id 255) are not forwarded. Publication is reliable
+Zenoh sample when ``flush_s`` (20 ms) has passed since the first one waiting or ``max_batch``
+bytes are waiting; a live source ticks when no data comes, so the last frames never wait
+longer. Batching is what lets a worker keep up: a paced vehicle's datagrams arrive a few
+milliseconds apart, and publishing each at once (the earlier rule, "at once when nothing else
+is queued") gave a worker 145 samples per vehicle-second, each a Zenoh callback, a queue item
+and a GIL hand-over, and cost it a quarter more CPU than 20 ms batches (docs/results.md,
+Fleet, Load). A queued source that cannot tick is flushed whenever its queue is empty; a file
+by age and size, and at its end.
+Frames of a ground station (system id 255) are not forwarded. Publication is reliable
 and, when the network is slower than the link, blocks the bridge: the backlog then shows as
 counted input drops, never as silent loss on the bus. A queryable ``mavlink/bridge/<name>/health``
 answers the bridge's counters.
@@ -41,7 +47,7 @@ class Bridge:
     """Forward a byte source's frames to Zenoh, per vehicle (module docstring)."""
 
     def __init__(self, source: Source, bus: ZenohBus, *, decoder: Decoder | None = None,
-                 name: str = "bridge", flush_s: float = 0.01, max_batch: int = 8192) -> None:
+                 name: str = "bridge", flush_s: float = 0.02, max_batch: int = 8192) -> None:
         self.source = source
         self.bus = bus
         self.decoder = decoder or Decoder()
@@ -85,10 +91,20 @@ class Bridge:
         t_end = None if duration_s is None else time.monotonic() + duration_s
         st = self.stats
         queue_len = getattr(self.source, "_queue", None)
+        ticks = hasattr(self.source, "tick_s")
+        if ticks:  # empty chunks while no data comes: waiting batches still leave on time
+            self.source.tick_s = max(self.flush_s / 2.0, 0.001)  # type: ignore[attr-defined]
         try:
             for data, wall in self.source:
-                st.chunks += 1
                 now = time.monotonic()
+                if not data:  # a tick
+                    for sysid in list(self._batch):
+                        if now - self._since[sysid] >= self.flush_s:
+                            self._publish(sysid)
+                    if t_end is not None and now >= t_end:
+                        break
+                    continue
+                st.chunks += 1
                 for m in self.decoder.feed(data, wall):
                     sysid = m._header.srcSystem
                     if sysid in GCS_SYSIDS:
@@ -103,7 +119,7 @@ class Bridge:
                     self._size[sysid] += len(buf)
                     st.frames += 1
                     st.per_sysid[sysid] = st.per_sysid.get(sysid, 0) + 1
-                idle = queue_len is not None and len(queue_len) == 0
+                idle = not ticks and queue_len is not None and len(queue_len) == 0
                 for sysid in list(self._batch):
                     if idle or self._size[sysid] >= self.max_batch or \
                             now - self._since[sysid] >= self.flush_s:

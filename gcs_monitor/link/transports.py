@@ -111,6 +111,10 @@ class _ThreadedSource(Source):
         self._queue = _BoundedQueue(max_chunks)
         self._stop = threading.Event()
         self._idle = idle_timeout_s
+        # tick_s: when set, the iterator also yields an empty chunk (b"", wall time) after this
+        # long without data, so a consumer that holds data back (the fleet bridge's batches)
+        # can let it go on time even when nothing more arrives
+        self.tick_s: float | None = None
         self._thread = threading.Thread(target=self._run, daemon=True)
 
     def _start(self) -> None:
@@ -132,11 +136,14 @@ class _ThreadedSource(Source):
         # the source waits (a monitor started before its vehicle must not give up).
         last: float | None = None
         while not self._stop.is_set():
-            item = self._queue.get(0.1)
+            tick = self.tick_s
+            item = self._queue.get(0.1 if tick is None else tick)
             if item is None:
                 if self._idle is not None and last is not None and \
                         time.monotonic() - last > self._idle:
                     return
+                if tick is not None:
+                    yield b"", time.time()
                 continue
             last = time.monotonic()
             yield item
