@@ -461,7 +461,7 @@ These come from `gcs_monitor.sinks.zenoh_sink.keyexpr(vehicle, topic, name=None)
 | `gcs/<vehicle>/alarm` | one `alarm` payload per AlarmEvent transition (raised / updated / cleared); an advanced publisher that keeps the vehicle's last 256 alarms | on each event |
 | `gcs/<vehicle>/estimate/<name>` | one `estimate` payload per estimator (`imu_ts`, `airdata`, ...) | decimated, 5 Hz default |
 | `gcs/<vehicle>/health` | **queryable**: answers `get()` with the vehicle's latest `health` payload | on request |
-| `mavlink/<vehicle>/rx` | raw MAVLink frames of one vehicle (`gcs-monitor bridge` publishes, `worker` and the `zenoh:` source read) | batched, every 10 ms at most |
+| `mavlink/<vehicle>/rx` | raw MAVLink frames of one vehicle (`gcs-monitor bridge` publishes, `worker` and the `zenoh:` source read) | batched, 20 ms at most (`--flush-ms`) |
 | `gcs/fleet/<group>/worker/<id>` | liveliness token of a fleet worker | while it lives |
 | `gcs/fleet/<group>/status/<id>` | a worker's status (JSON: vehicles owned, vehicle time reached, active alarms); also a queryable | 2 Hz |
 
