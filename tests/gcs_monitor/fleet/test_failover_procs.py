@@ -16,7 +16,14 @@ from tests.helpers.netns import NetnsLab, skip_reason
 pytestmark = pytest.mark.slow
 
 ONSETS = (12.0, 18.0, 26.0, None)  # vehicle k flies template (k - 1) % 4
-TAKEOVER_BOUND_S = 3.0  # a killed process: its session closes, its token goes at once
+# The bound (docs/architecture.md, Fleet): a killed process's session closes and its token goes
+# at once; the new owner then replays each vehicle's buffer (--buffer-s, 15 s) through the
+# families before it is live again, one vehicle after the other, so the k-th vehicle taken
+# over is monitored again after about k x buffer / replay speed (15-16x on the project's
+# machine: 1.0, 2.0, 2.9 s for three vehicles). Bound: the families replaying at 10x or more.
+TAKEOVER_DETECT_S = 1.0
+BUFFER_S = 15.0  # the worker's default --buffer-s
+MIN_REPLAY_X = 10.0
 FAULT_KINDS = {"sensor_fault", "actuator_fault", "set_lost"}
 
 
@@ -37,6 +44,7 @@ def _check(r: FleetResult, *, killed: str) -> dict[int, str]:
             onset = r.onset_of(a["vehicle"])
             assert onset is not None and 0.0 <= a["vehicle_time_s"] - onset <= 1.5
     owners: dict[int, str] = {}
+    takeovers: list[float] = []
     for s in range(1, r.n + 1):
         replies = r.health.get(f"gcs/{s}/health", [])
         assert len(replies) == 1, (s, replies)
@@ -45,7 +53,12 @@ def _check(r: FleetResult, *, killed: str) -> dict[int, str]:
         assert owners[s] != killed
         assert h["families"]["airdata"]["state"] == "judging"
         if h["handover"] is not None and h["handover"]["source"] == killed:
-            assert h["fleet"]["takeover_s"] <= TAKEOVER_BOUND_S, h["fleet"]
+            takeovers.append(float(h["fleet"]["takeover_s"]))
+    assert takeovers, "no vehicle was taken over"
+    print(f"\n{killed} killed: its vehicles monitored again after "
+          + ", ".join(f"{t:.2f}" for t in sorted(takeovers)) + " s")
+    for k, t in enumerate(sorted(takeovers), start=1):
+        assert t <= TAKEOVER_DETECT_S + k * BUFFER_S / MIN_REPLAY_X, sorted(takeovers)
     return owners
 
 
