@@ -343,8 +343,7 @@ class Monitor:
     def _pipeline(self, v: VehicleState) -> VehiclePipeline:
         if v.pipeline is None:
             v.out = _BookSink(v.book, list(self.sinks_for(v.sysid)))
-            v.pipeline = self._new_pipeline(v.sysid, v.out)
-            v.assembler.interp_error = v.pipeline.reads_interp_error
+            v.pipeline = self._new_pipeline(v)
             v.link_alarms = LinkAlarmMonitor(params=self.cfg.link, vehicle=v.sysid,
                                              alarm=self.cfg.alarms)
             v.signing_alarm = AlarmStateMachine(ChannelId("link", v.sysid, "signature"),
@@ -360,14 +359,20 @@ class Monitor:
             log.info("vehicle %d: pipeline started", v.sysid)
         return v.pipeline
 
-    def _new_pipeline(self, sysid: int, out: _BookSink) -> VehiclePipeline:
+    def _new_pipeline(self, v: VehicleState) -> VehiclePipeline:
+        """Vehicle ``v``'s families into its book sink; its assembler computes the optional Frame
+        fields only when a family reads them."""
+        out, sysid = v.out, v.sysid
+        assert out is not None
         # per-channel status records are built only when a sink or ``on_step`` reads them
         ctx = FamilyContext(vehicle=sysid, stale_after_s=self.cfg.telemetry.stale_after_s,
                             statuses=bool(out.sinks) or self.on_step is not None,
                             alarm=self.cfg.alarms, classifier=self.cfg.classifier)
-        return VehiclePipeline(sysid, self.families_for(ctx), sinks=[out],
+        pipe = VehiclePipeline(sysid, self.families_for(ctx), sinks=[out],
                                coverage=self.cfg.coverage, alarm=self.cfg.alarms,
                                statuses=ctx.statuses)
+        v.assembler.interp_error = pipe.reads_interp_error
+        return pipe
 
     def feed(self, data: bytes, wall_s: float = 0.0) -> list[AlarmEvent]:
         """Decode a chunk and run every Frame it completes; return the alarm events."""
@@ -404,9 +409,7 @@ class Monitor:
             if frame.reset:  # autopilot reboot: estimators and FDI start afresh
                 # estimator states, FDI windows, latches and predictions describe the old
                 # flight (whose held frames came first): new families with the same sinks
-                assert v.out is not None
-                pipe = v.pipeline = self._new_pipeline(v.sysid, v.out)
-                v.assembler.interp_error = pipe.reads_interp_error
+                pipe = v.pipeline = self._new_pipeline(v)
                 # the new families must confirm the alarms still active (no second raise);
                 # the link alarms keep their own state machines
                 v.book.inherit(v.book.active(), watermark_us=None, reason="reboot",

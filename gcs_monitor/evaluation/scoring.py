@@ -128,7 +128,8 @@ def _sample_at(ts_s: np.ndarray, vals: np.ndarray, t_s: np.ndarray) -> np.ndarra
     return np.where(idx >= 0, vals[np.clip(idx, 0, None)], 0.0) if len(ts_s) else np.zeros_like(t_s)
 
 
-def _rms(x: np.ndarray) -> float:
+def rms_finite(x: np.ndarray) -> float:
+    """RMS of the finite entries of ``x`` (NaN when there are none)."""
     x = x[np.isfinite(x)]
     return float(np.sqrt(np.mean(x * x))) if x.size else math.nan
 
@@ -181,7 +182,7 @@ def score_air_run(index: int, sc: Scenario, cfg: MonitorConfig, events: Sequence
         inside = (a["t_us"] >= f.t_start_us) & (
             True if f.t_end_us is None else a["t_us"] < f.t_end_us)
         r = a[f"{s}.measured"][:, i] - a[f"{s}.ref"][:, 0]
-        recon[str(f.channel)] = _rms((r - fv)[inside])
+        recon[str(f.channel)] = rms_finite((r - fv)[inside])
     out_rmse: dict[str, dict[str, float]] = {}
     out_lost: dict[str, dict[str, int]] = {}
     for m in (METHOD_MONITOR, "virtual", METHOD_MEDIAN, METHOD_FIXED):
@@ -192,7 +193,7 @@ def score_air_run(index: int, sc: Scenario, cfg: MonitorConfig, events: Sequence
             v = a[key][:, 0]
             if m == "virtual" and not np.isfinite(v).any():
                 continue
-            out_rmse.setdefault(m, {})[s] = _rms(v - true[s])
+            out_rmse.setdefault(m, {})[s] = rms_finite(v - true[s])
             out_lost.setdefault(m, {})[s] = int(np.sum(~np.isfinite(v)))
     j_max = dict(j_seen)
     j_cal: dict[str, float] = {}

@@ -97,15 +97,9 @@ class Bridge:
         try:
             for data, wall in self.source:
                 now = time.monotonic()
-                if not data:  # a tick
-                    for sysid in list(self._batch):
-                        if now - self._since[sysid] >= self.flush_s:
-                            self._publish(sysid)
-                    if t_end is not None and now >= t_end:
-                        break
-                    continue
-                st.chunks += 1
-                for m in self.decoder.feed(data, wall):
+                if data:  # else a tick: only the waiting batches' ages are checked
+                    st.chunks += 1
+                for m in self.decoder.feed(data, wall) if data else ():
                     sysid = m._header.srcSystem
                     if sysid in GCS_SYSIDS:
                         continue

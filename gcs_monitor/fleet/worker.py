@@ -307,8 +307,7 @@ class Worker:
                 parts.setdefault(sysid, []).append(data)
                 walls[sysid] = wall  # the chunk's receipt: its last sample's
             for sysid, chunks in parts.items():
-                self._take_raw(sysid, chunks[0] if len(chunks) == 1 else b"".join(chunks),
-                               walls[sysid])
+                self._take_raw(sysid, b"".join(chunks), walls[sysid])
             if time.monotonic() > deadline:
                 return
 

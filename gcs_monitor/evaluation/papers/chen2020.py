@@ -48,6 +48,7 @@ from gcs_monitor.evaluation.papers.chen2020_design import (
 from gcs_monitor.evaluation.report import md_table, pyplot, write_csv
 from gcs_monitor.evaluation.runner import run_parallel
 from gcs_monitor.evaluation.runs import feed_packets
+from gcs_monitor.evaluation.scoring import rms_finite
 from gcs_monitor.families.yaw_rate.config import ObserverConfig, YawRateFamilyConfig
 from gcs_monitor.families.yaw_rate.design import ObserverDesign, load_bands
 from gcs_monitor.families.yaw_rate.estimator import EY_CHANNEL, YawRateEstimator
@@ -262,11 +263,6 @@ def case(name: str, *, sensor: str = "r", seed: int | None = None,
                                wind=wind, name=sc.name if sensor == "r" else f"{sc.name}_p")
 
 
-def _rms(x: np.ndarray) -> float:
-    x = x[np.isfinite(x)]
-    return float(np.sqrt(np.mean(x * x))) if x.size else math.nan
-
-
 # ------------------------------------------------------------------------------------------------
 # experiments
 # ------------------------------------------------------------------------------------------------
@@ -351,13 +347,13 @@ def _ftc_table(out_dir: Path, jobs: int, sensor: str, tag: str) -> str:
             rec = ey = math.nan
             if r["est_t"].size:
                 we = r["est_t"] >= FAULT_T0_S
-                rec = _rms((r["f_hat"] - r["f"])[we]) * RAD2DEG
+                rec = rms_finite((r["f_hat"] - r["f"])[we]) * RAD2DEG
                 ey = float(np.max(r["e_y"][we]))
                 ax[0].plot(r["est_t"], r["f"] * RAD2DEG, "k", lw=1, label="true fault")
                 ax[0].plot(r["est_t"], r["f_hat"] * RAD2DEG, "C1", lw=1, label="reconstructed")
                 ax[1].plot(r["est_t"], r["e_y"], "C2", lw=0.8)
-            rows.append([c.replace("chen2020_", ""), mode, _rms(ep[win]), _rms(eb[win]),
-                         _rms(dphi[win]), _rms(dbeta[win]), rec, ey])
+            rows.append([c.replace("chen2020_", ""), mode, rms_finite(ep[win]), rms_finite(eb[win]),
+                         rms_finite(dphi[win]), rms_finite(dbeta[win]), rec, ey])
             ax[2].plot(r["t"], r["phi"] * RAD2DEG, lw=1, label=mode)
             ax[3].plot(r["t"], r["beta"] * RAD2DEG, lw=1, label=mode)
         ax[2].plot(ref["t"], ref["phi_c"] * RAD2DEG, "k:", lw=1, label="command")
@@ -413,7 +409,7 @@ def _ol_rows(runs: list[OpenLoopRun], sensor: str) -> list[list[Any]]:
         other = [e for e in alarms if not (e.channel == ch and faulty)]
         if mine and not faulty and mine[0].state is AlarmState.UPDATED:
             other.append(mine[0])  # a false alarm of the observer behind another's
-        rows.append([r.name.replace("chen2020_", ""), _rms((r.f_hat - f)[w]) * RAD2DEG,
+        rows.append([r.name.replace("chen2020_", ""), rms_finite((r.f_hat - f)[w]) * RAD2DEG,
                      float(np.max(r.e_y[w])) if w.any() else math.nan,
                      r.j_max * RAD2DEG,
                      ("none" if not mine else f"FALSE, at {first:.1f} s (before the fault)"
@@ -494,7 +490,7 @@ def chen2020_false_alarms(out_dir: Path, jobs: int = 1, quick: bool = False) -> 
     rows = []
     for r in runs:
         alarms = sensor_alarms(r.events)
-        rows.append([r.name, _rms(r.f_hat[r.t_s >= 15.0]) * RAD2DEG, r.j_max * RAD2DEG,
+        rows.append([r.name, rms_finite(r.f_hat[r.t_s >= 15.0]) * RAD2DEG, r.j_max * RAD2DEG,
                      r.j_max * RAD2DEG / th,
                      "; ".join(f"{e.channel} ({e.estimator}) at {e.t_us * 1e-6:.1f} s"
                                for e in alarms) or "none"])
@@ -670,10 +666,10 @@ def chen2020_tuning(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
         for k in ks:
             for tau in taus:
                 t, fh, _ = _replay_observer(frames, k, tau, lambda _t: 0.0)
-                ff = _rms(fh[t >= 15.0]) * RAD2DEG
+                ff = rms_finite(fh[t >= 15.0]) * RAD2DEG
                 t, fh, f = _replay_observer(frames, k, tau, drift)
                 w = t >= FAULT_T0_S
-                rec = _rms((fh - f)[w]) * RAD2DEG
+                rec = rms_finite((fh - f)[w]) * RAD2DEG
                 res[(sigma, k, tau)] = (ff, rec)
                 rows.append([sigma, k, tau, ff, rec])
     plt = pyplot()

@@ -25,10 +25,17 @@ from pathlib import Path
 import numpy as np
 
 from gcs_monitor.core.units import RAD2DEG
-from gcs_monitor.evaluation.papers.chen2020 import CASES, FAULT_T0_S, FTC_MODES, case, ftc_run
+from gcs_monitor.evaluation.papers.chen2020 import (
+    CASES,
+    FAULT_T0_S,
+    FTC_MODES,
+    case,
+    ftc_run,
+)
 from gcs_monitor.evaluation.papers.chen2020_design import SmcFactory, design_text, make_smc
 from gcs_monitor.evaluation.report import md_table, pyplot, write_csv
 from gcs_monitor.evaluation.runner import run_parallel
+from gcs_monitor.evaluation.scoring import rms_finite
 from gcs_monitor.families.yaw_rate.design import load_design
 
 QUICK_S = 60.0  # --quick: the first minute (the fault from 30 s)
@@ -46,11 +53,6 @@ def _job(job: tuple[str, str, float | None, SmcFactory | None, int | None]
     if duration_s is not None:
         sc = dataclasses.replace(sc, duration_s=duration_s)
     return ftc_run(sc, mode, autopilot=factory)
-
-
-def _rms(x: np.ndarray) -> float:
-    x = x[np.isfinite(x)]
-    return float(np.sqrt(np.mean(x * x))) if x.size else math.nan
 
 
 def chen2020_smc(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
@@ -88,9 +90,10 @@ def chen2020_smc(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
                 r = by[(c, tag, m)]
                 ep = (r["phi"] - r["phi_c"]) * RAD2DEG
                 eb = (r["beta"] - r["beta_c"]) * RAD2DEG
-                rows.append([c.replace("chen2020_", ""), tag, m, _rms(ep[win]), _rms(eb[win]),
-                             _rms((r["phi"] - ref["phi"])[win]) * RAD2DEG,
-                             _rms((r["beta"] - ref["beta"])[win]) * RAD2DEG,
+                rows.append([c.replace("chen2020_", ""), tag, m, rms_finite(ep[win]),
+                             rms_finite(eb[win]),
+                             rms_finite((r["phi"] - ref["phi"])[win]) * RAD2DEG,
+                             rms_finite((r["beta"] - ref["beta"])[win]) * RAD2DEG,
                              float(np.nanmax(r["s"][win])) if tag == "SMC" else math.nan])
     plt = pyplot()
     for c in cases:
@@ -136,11 +139,11 @@ def chen2020_smc(out_dir: Path, jobs: int = 1, quick: bool = False) -> str:
                 win = ref["t"] >= FAULT_T0_S
                 unc, cor = held[(c, sd, "uncorrected")], held[(c, sd, "corrected")]
                 hrows.append([c.replace("chen2020_", ""), sd,
-                              _rms((ref["phi"] - ref["phi_c"])[win]) * RAD2DEG,
-                              _rms((unc["phi"] - ref["phi"])[win]) * RAD2DEG,
-                              _rms((cor["phi"] - ref["phi"])[win]) * RAD2DEG,
-                              _rms((unc["beta"] - ref["beta"])[win]) * RAD2DEG,
-                              _rms((cor["beta"] - ref["beta"])[win]) * RAD2DEG,
+                              rms_finite((ref["phi"] - ref["phi_c"])[win]) * RAD2DEG,
+                              rms_finite((unc["phi"] - ref["phi"])[win]) * RAD2DEG,
+                              rms_finite((cor["phi"] - ref["phi"])[win]) * RAD2DEG,
+                              rms_finite((unc["beta"] - ref["beta"])[win]) * RAD2DEG,
+                              rms_finite((cor["beta"] - ref["beta"])[win]) * RAD2DEG,
                               float(np.nanmax(cor["s"][win]))])
         write_csv(out_dir / "chen2020_smc_held_out.csv", hhead, hrows)
         out += ("\nThe SMC on held-out seeds (turbulence and sensor noise the design values were "
