@@ -335,6 +335,11 @@ class RedundantSetMonitor:
         return any(u and not f and j > th
                    for u, f, j in zip(self._usable, self._faulty, self._J, strict=True))
 
+    @property
+    def healthy(self) -> int:
+        """Instances usable on the last sample and not isolated as faulty."""
+        return sum(1 for u, f in zip(self._usable, self._faulty, strict=True) if u and not f)
+
     def set_threshold(self, threshold: float) -> None:
         """A new J_th from now on (scheduled on the estimated turbulence)."""
         if threshold != self.p.threshold:

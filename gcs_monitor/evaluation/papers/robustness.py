@@ -19,6 +19,7 @@ import dataclasses
 import math
 import re
 import time
+from collections import Counter
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -359,7 +360,7 @@ def presets_without_declared_weather(out: Path, jobs: int = 2, quick: bool = Fal
 
 def weather_campaign_markdown(title: str, tables: dict[str, dict[str, list[MetricsRow]]],
                               n_runs: int, wall_s: float, jobs: int, command: str, *,
-                              both: bool = True) -> str:
+                              both: bool = True, how: str | None = None) -> str:
     """Table IV rows of the monitor and the median vote, declared against estimated weather."""
     rows = []
     for weather, tab in tables.items():
@@ -369,8 +370,9 @@ def weather_campaign_markdown(title: str, tables: dict[str, dict[str, list[Metri
                              r.n_faulty, fmt_fixed(r.far_pct), fmt_fixed(r.mdr_pct),
                              fmt_fixed(r.fir_pct), fmt_fixed(r.delay_max_s),
                              fmt_fixed(r.delay_mean_s)])
-    how = ("each run twice (its weather declared as a forecast, and none declared: estimated "
-           "from the flight)" if both else "no weather declared (estimated from the flight)")
+    how = how or ("each run twice (its weather declared as a forecast, and none declared: "
+                  "estimated from the flight)" if both
+                  else "no weather declared (estimated from the flight)")
     return (f"{title}: {n_runs} runs, default configuration, {how}; wall "
             f"{wall_s:.0f} s with {jobs} job(s). `{command}`\n\n"
             + md_table(["weather", "method", "group", "fault-free runs", "faulty runs",
@@ -505,6 +507,78 @@ def triplex_actuators(out: Path, jobs: int = 2, quick: bool = False) -> str:
     return md
 
 
+def _min_healthy(cfg: MonitorConfig, n: int) -> MonitorConfig:
+    a = cfg.family("airdata")
+    return cfg.with_family("airdata", weather_estimate=dataclasses.replace(
+        a.weather_estimate, min_healthy=n))
+
+
+def wan2018_thin_sets(out: Path, jobs: int = 2, quick: bool = False) -> str:
+    """The Wan2018 campaign's runs with two or more faults in one air-data set (the only runs
+    that can leave a set with one healthy instance), the air-data family alone and no weather
+    declared: the weather estimate with a thin set's quantity from kinematics (``min_healthy``
+    2, the default) against learning from the set's last instance (1, the behaviour before);
+    Table IV on those runs and every run whose raises differ
+    (:mod:`gcs_monitor.families.airdata.weather`, "thin sets")."""
+    n, dur = (12, (40.0, 60.0)) if quick else (249, FULL_DURATION_S)
+    return _thin_sets("Wan2018 campaign", campaign_scenarios(n, CAMPAIGN_SEED, dur), out, jobs,
+                      f"wan2018_thin_sets{' --quick' if quick else ''}")
+
+
+def wan2018_thin_sets_declared(out: Path, jobs: int = 2, quick: bool = False) -> str:
+    """``wan2018_thin_sets`` with each run's weather declared as a forecast (the prior of the
+    weather estimate, as in ``wan2018_campaign_restart``)."""
+    n, dur = (12, (40.0, 60.0)) if quick else (249, FULL_DURATION_S)
+    return _thin_sets("Wan2018 campaign, weather declared",
+                      campaign_scenarios(n, CAMPAIGN_SEED, dur), out, jobs,
+                      f"wan2018_thin_sets_declared{' --quick' if quick else ''}", declare=True)
+
+
+def triplex_thin_sets(out: Path, jobs: int = 2, quick: bool = False) -> str:
+    """``wan2018_thin_sets`` on the 100-run triplex campaign (seed 0)."""
+    return _thin_sets("Triplex campaign", scenarios.preset_set("triplex", 12 if quick else 100, 0),
+                      out, jobs, f"triplex_thin_sets{' --quick' if quick else ''}")
+
+
+def _thin_sets(title: str, scs: Sequence[Scenario], out: Path, jobs: int, name: str, *,
+               declare: bool = False) -> str:
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    sel = [i for i, sc in enumerate(scs)
+           if max(Counter(f.channel[:3] for f in sc.faults).values(), default=0) >= 2]
+    sub = [scs[i] for i in sel]
+    base = family_alone(MonitorConfig(), "airdata")
+    labels = (("kinematics (min_healthy 2)", 2), ("learnt from the last instance (1)", 1))
+    tables: dict[str, dict[str, list[MetricsRow]]] = {}
+    recs: dict[str, list[RunRecord]] = {}
+    for label, k in labels:
+        recs[label] = run_records(sub, _min_healthy(base, k), jobs, desc=label,
+                                  declare_weather=declare)
+        tables[label] = tables_of(recs[label])
+
+    def raises(r: RunRecord) -> list[str]:
+        return [f"{e.t_us * 1e-6:.2f} {e.channel} {e.fault_type.value}" for e in r.events
+                if e.state is AlarmState.RAISED]
+
+    rows = []
+    for j, i in enumerate(sel):
+        a, b = (raises(recs[label][j]) for label, _ in labels)
+        if a != b:
+            faults = ", ".join(f"{f.channel} {f.kind} {f.t_start_s:.1f}"
+                               for f in scs[i].faults)
+            rows.append([i, faults, "; ".join(a), "; ".join(b)])
+    md = (weather_campaign_markdown(
+              f"{title}, the {len(sel)} of {len(scs)} runs with two or more faults in one "
+              "set (air-data family alone)", tables, len(sel), time.perf_counter() - t0, jobs,
+              f"gcs-monitor evaluate --experiment {name}", both=False,
+              how="each run's weather declared (the estimate's prior)" if declare else None)
+          + f"\n\nRuns whose raises differ ({len(rows)}):\n\n"
+          + (md_table(["run", "faults (channel, kind, onset s)", f"raised, {labels[0][0]}",
+                       f"raised, {labels[1][0]}"], rows) if rows else "none"))
+    (out / f"{name.split()[0]}.md").write_text(md + "\n")
+    return md
+
+
 def experiments() -> dict[str, Callable[[Path, int, bool], str]]:
     return {"rate_sweep": rate_sweep,
             "triplex_actuators": triplex_actuators,
@@ -512,4 +586,7 @@ def experiments() -> dict[str, Callable[[Path, int, bool], str]]:
             "presets_weather": presets_without_declared_weather,
             "wan2018_campaign_weather": wan2018_campaign_weather,
             "wan2018_campaign_defaults": wan2018_campaign_defaults,
+            "wan2018_thin_sets": wan2018_thin_sets,
+            "wan2018_thin_sets_declared": wan2018_thin_sets_declared,
+            "triplex_thin_sets": triplex_thin_sets,
             "triplex_weather": triplex_weather}

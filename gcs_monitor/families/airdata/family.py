@@ -23,9 +23,10 @@ import math
 
 import numpy as np
 
+from gcs_monitor.core.atmosphere import tas_from_cas
 from gcs_monitor.families.airdata.config import AirDataFamilyConfig
 from gcs_monitor.families.airdata.estimator import VIRTUAL_CAS, AirDataEstimator, floats
-from gcs_monitor.families.airdata.weather import WeatherEstimator, wind_ned
+from gcs_monitor.families.airdata.weather import WeatherEstimator, wind_ned_tas
 from gcs_monitor.families.base import AIRSPEED_CAS, FUSED, VIRTUAL, FamilyContext, Verdict
 from gcs_monitor.fdi.config import scheduled_threshold, set_params
 from gcs_monitor.fdi.events import AlarmState, SetStatus
@@ -70,6 +71,8 @@ class AirDataFamily:
         self._estimates: list[Estimate] = []
         self._inputs = False  # air data has been in the telemetry
         self._hold = False  # an instance was suspected or isolated on this sample
+        self._min_healthy = cfg.weather_estimate.min_healthy
+        self._thin = {s: False for s in SETS}  # the set has too few healthy instances
 
     def predict(self, frame: Frame) -> tuple[float, float] | None:
         """eq. 17's reference alpha_hat_{k|k-1}, V_c_hat_{k|k-1} (None without one)."""
@@ -145,6 +148,9 @@ class AirDataFamily:
             if mon.suspected or any(e.state is not AlarmState.UPDATED
                                              for e in events):
                 self._hold = True
+            # a set down to its last healthy instance: nothing cross-checks it, so the weather
+            # estimate does not learn from it (weather.py, "thin sets")
+            self._thin[s] = mon.healthy < min(self._min_healthy, mon.n)
         return verdict
 
     def _estimate_weather(self, frame: Frame, verdict: Verdict) -> Estimate | None:
@@ -157,13 +163,22 @@ class AirDataFamily:
             w.hold(t)
             self._hold = False
         aoa, cas = verdict.fused.get("aoa"), verdict.fused.get("cas")
+        thin_aoa, thin_cas = self._thin["aoa"], self._thin["cas"]
         wind = None
         if (aoa is not None and cas is not None and cas > 0.0 and frame.euler_rad is not None
-                and frame.gps_vel_ned_mps is not None and math.isfinite(frame.baro_alt_m)):
+                and frame.gps_vel_ned_mps is not None and math.isfinite(frame.baro_alt_m)
+                and not (thin_aoa and thin_cas)):
             ssa = frame.ssa_rad if math.isfinite(frame.ssa_rad) else 0.0
-            wind = wind_ned(frame.gps_vel_ned_mps, frame.euler_rad, cas, aoa, ssa,
-                            frame.baro_alt_m)
-        env = w.add(t, wind)
+            tas = tas_from_cas(cas, frame.baro_alt_m)
+            if thin_aoa or thin_cas:
+                kin = w.kinematic_air(frame.gps_vel_ned_mps, frame.euler_rad)
+                if kin is not None:  # the set that cannot be checked is replaced by kinematics
+                    aoa = kin[0] if thin_aoa else aoa
+                    tas = kin[1] if thin_cas else tas
+                    wind = wind_ned_tas(frame.gps_vel_ned_mps, frame.euler_rad, tas, aoa, ssa)
+            else:
+                wind = wind_ned_tas(frame.gps_vel_ned_mps, frame.euler_rad, tas, aoa, ssa)
+        env = w.add(t, wind, gusts=not (thin_aoa or thin_cas))
         if env is None:
             return None
         if self.estimator is not None and not self._fixed_bounds:

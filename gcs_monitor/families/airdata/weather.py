@@ -12,9 +12,27 @@ with V_t from the *fused* CAS (Wan2018 eq. 16 inverted, ISA), alpha the fused Ao
 beta the sideslip vane (0 when absent). It is robust to the faults the family monitors: the
 fused values leave isolated instances out, and the estimate is frozen while an instance is
 suspected (its J above J_th, not yet isolated) and for ``hold_s`` after any isolation or
-readmission, and while a set has no healthy instance. A relabel of an instance already isolated
-(an UPDATED alarm event) does not hold it: that instance is out of the fusion already, and holding
-on it froze the estimate for as long as any alarm stood.
+readmission, and while a set has no healthy instance. A relabel of an instance already
+isolated (an UPDATED alarm event) does not hold it: that instance is out of the fusion already,
+and holding on it froze the estimate for as long as any alarm stood.
+
+*Thin sets.* A set with fewer than ``min_healthy`` (2) healthy instances is not used either: its
+last instance cannot be judged by comparison, only against the CMHE's model, whose wind bounds
+come from this estimate, so learning the weather from it turns its slow fault into wind and
+widens the bounds that would catch it (Wan2018 campaign run 215: with aoa0 and aoa1 isolated,
+aoa2's 0.77 deg/s runaway was learnt as a mean updraft growing to 68 m/s, the |W_z| bound
+opened to 125 m/s, and the runaway to 33 deg was never alarmed). Holding the whole estimate
+instead loses the wind the other set still measures (run 157: AoA thin from 97 s, then a 10
+m/s shear that the healthy CAS triplex saw, never learnt; the CMHE's W_x ran into the old box
+and all three CAS were flagged). So the thin set's quantity is taken from kinematics with the
+learnt mean wind (:meth:`WeatherEstimator.kinematic_air`: alpha, or V_t, of
+``V_ground - W_mean`` in body axes): the mean wind goes on following what the checked set and
+the GPS say (the along-track wind from CAS when AoA is thin; the vertical from AoA when CAS is
+thin), and the turbulence estimate holds, since part of each sample is the mean itself; such
+samples do not count towards ``converge_s`` (run 151: CAS thin from 13.5 s, the turbulence
+of the first seconds alone would have become the envelope at convergence and scheduled J_th
+down onto the last CAS instance), so the prior stays in force until the estimate has
+converged on checked samples. Both sets thin: no sample.
 
 From the wind samples (one per air-data sample):
 
@@ -63,6 +81,10 @@ class WeatherConfig:
     hold_s: float = param(5.0, "no update for this long after an instance was isolated or "
                           "readmitted (not after a relabel of one already isolated)",
                           positive=True)
+    min_healthy: int = param(2, "a set with fewer healthy instances (or fewer than all it "
+                             "has) is not learnt from: its quantity comes from kinematics with "
+                             "the learnt mean wind and the turbulence estimate holds (one "
+                             "instance left has nothing to be checked against)", positive=True)
     sigma_margin: float = param(1.25, "turbulence estimate multiplied by this (its own spread "
                                 "over one window)", positive=True)
     update_s: float = param(1.0, "the envelope is recomputed this often", positive=True)
@@ -84,7 +106,12 @@ class WeatherEstimate:
 def wind_ned(vel_ned_mps: np.ndarray, euler_rad: np.ndarray, cas_mps: float, aoa_rad: float,
              ssa_rad: float, alt_m: float) -> np.ndarray:
     """Kinematic wind ``W = V_ground - C_ned_frd V_air`` (module docstring), m/s NED."""
-    tas = tas_from_cas(cas_mps, alt_m)
+    return wind_ned_tas(vel_ned_mps, euler_rad, tas_from_cas(cas_mps, alt_m), aoa_rad, ssa_rad)
+
+
+def wind_ned_tas(vel_ned_mps: np.ndarray, euler_rad: np.ndarray, tas: float, aoa_rad: float,
+                 ssa_rad: float) -> np.ndarray:
+    """:func:`wind_ned` with the true airspeed given."""
     ca, sa = math.cos(aoa_rad), math.sin(aoa_rad)
     cb, sb = math.cos(ssa_rad), math.sin(ssa_rad)
     v_air_frd = np.array([tas * ca * cb, tas * sb, tas * sa * cb], dtype=np.float64)
@@ -171,22 +198,41 @@ class WeatherEstimator:
         """An instance was isolated (or its J crossed J_th): no update for ``hold_s``."""
         self._hold_until = max(self._hold_until, t_us + self._hold_us)
 
-    def add(self, t_us: int, wind: np.ndarray | None) -> WindEnvelope | None:
+    def kinematic_air(self, vel_ned_mps: np.ndarray,
+                      euler_rad: np.ndarray) -> tuple[float, float] | None:
+        """(alpha rad, V_t m/s) that the ground velocity and the attitude give with the learnt
+        mean wind, ``V_air = C_ned_frd^T (V_ground - W_mean)``: what stands in for a set that
+        is down to its last healthy instance (module docstring, "thin sets"); None before any
+        mean has been learnt."""
+        m = self._last_mean
+        if m is None:
+            return None
+        C = dcm_ned_frd(float(euler_rad[0]), float(euler_rad[1]), float(euler_rad[2]))
+        vb = C.T @ (np.asarray(vel_ned_mps, dtype=np.float64) - m)
+        return math.atan2(float(vb[2]), float(vb[0])), float(np.linalg.norm(vb))
+
+    def add(self, t_us: int, wind: np.ndarray | None,
+            gusts: bool = True) -> WindEnvelope | None:
         """One air-data sample's kinematic wind (None when it cannot be trusted); returns the
-        new envelope when it is recomputed (every ``update_s``), else None."""
+        new envelope when it is recomputed (every ``update_s``), else None. ``gusts`` False:
+        the sample moves the mean wind only, the turbulence estimate holds (part of it came
+        from kinematics, not from a sensor: "thin sets"), and it does not count towards
+        ``converge_s``: an estimate that has not converged on checked samples keeps the prior."""
         w = (0.0, 0.0, 0.0) if wind is None else wind.tolist()
         if (wind is not None and t_us >= self._hold_until and math.isfinite(w[0])
                 and math.isfinite(w[1]) and math.isfinite(w[2])):
-            if self._last_t is not None and 0 < t_us - self._last_t <= self._max_gap_us:
-                self._usable_us += t_us - self._last_t
+            if (gusts and self._last_t is not None
+                    and 0 < t_us - self._last_t <= self._max_gap_us):
+                self._usable_us += t_us - self._last_t  # mean-only samples do not converge it
             self._last_t = t_us
             mean = self._mean.add(t_us, (w[0], w[1], w[2]))
-            g0, g1, g2 = w[0] - mean[0], w[1] - mean[1], w[2] - mean[2]
-            v0, v1, v2 = self._gust2.add(t_us, (g0 * g0, g1 * g1, g2 * g2))
-            var = (v0 + v1 + v2) / 3  # np.mean of three: ((v0 + v1) + v2) / 3
+            if gusts:
+                g0, g1, g2 = w[0] - mean[0], w[1] - mean[1], w[2] - mean[2]
+                v0, v1, v2 = self._gust2.add(t_us, (g0 * g0, g1 * g1, g2 * g2))
+                var = (v0 + v1 + v2) / 3  # np.mean of three: ((v0 + v1) + v2) / 3
+                self._sigma = self._max_sigma.add(t_us, math.sqrt(max(var, 0.0)))
             self._wind_h = self._max_h.add(t_us, math.hypot(mean[0], mean[1]))
             self._wind_z = self._max_z.add(t_us, abs(mean[2]))
-            self._sigma = self._max_sigma.add(t_us, math.sqrt(max(var, 0.0)))
             self._last_mean = np.array(mean)
         if t_us < self._next_update:
             return None

@@ -17,6 +17,7 @@ NAMES = {
     "wan2018_onspeed", "wan2018_calibration", "wan2018_campaign", "wan2018_campaign_restart",
     "wan2018_campaign_extensions", "wan2018_campaign_literal_nrz",
     "wan2018_campaign_restart_literal_nrz", "wan2018_campaign_extensions_literal_nrz",
+    "wan2018_thin_sets", "wan2018_thin_sets_declared", "triplex_thin_sets",
     "wan2018_campaign_scheduled_literal_nrz", "wan2018_campaign_lateral_literal_nrz",
     "wan2018_campaign_lateral_only_literal_nrz",
     "chen2020_design", "chen2020_ftc", "chen2020_open_loop", "chen2020_false_alarms",

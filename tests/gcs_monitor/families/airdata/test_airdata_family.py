@@ -3,6 +3,7 @@ against the estimator's prediction *for* sample k (x_hat_{k|k-1}), not the one o
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import sys
 from pathlib import Path
@@ -163,3 +164,47 @@ def test_weather_estimate_learns_on_while_an_isolated_instance_stays_in_alarm() 
     # the estimate moves with the turbulence at every update: not frozen
     changed = sum(a != b for a, b in zip(later, later[1:], strict=False))
     assert changed >= 0.9 * (len(later) - 1)
+
+
+def _thin_set_run(min_healthy: int) -> tuple[float, list[tuple[float, float]]]:
+    """aoa0 and aoa1 biased (isolated), then aoa2 runs away at 0.77 deg/s (Wan2018 campaign
+    run 215's runaway): the time aoa2 is raised (nan: never) and the weather estimate's mean
+    vertical wind over time."""
+    cfg = synth.SynthConfig(duration_s=110.0, faults=(
+        synth.SensorFault("aoa", 0, 20.0, "bias", 3.0 * DEG2RAD),
+        synth.SensorFault("aoa", 1, 25.0, "bias", -3.0 * DEG2RAD),
+        synth.SensorFault("aoa", 2, 50.0, "runaway", 0.77 * DEG2RAD)))
+    run = synth.generate(cfg, np.random.default_rng(5))
+    fcfg = AirDataFamilyConfig()
+    fcfg = dataclasses.replace(fcfg, weather_estimate=dataclasses.replace(
+        fcfg.weather_estimate, min_healthy=min_healthy))
+    fam = AirDataFamily(fcfg, FamilyContext(vehicle=1, stale_after_s=0.5),
+                        estimator=AirDataEstimator(variant="cmhe"))
+    p = VehiclePipeline(1, [fam])
+    raised = math.nan
+    w_down: list[tuple[float, float]] = []
+    for fr in run.frames:
+        out = p.step(fr)
+        for e in out.events:
+            if str(e.channel) == "aoa2" and e.state is AlarmState.RAISED and math.isnan(raised):
+                raised = fr.t_us * 1e-6
+        w = next((e for e in out.estimates if e.name == "weather"), None)
+        if w is not None:
+            w_down.append((fr.t_us * 1e-6, float(w.states["mean_wind_ned_mps"][2])))
+    return raised, w_down
+
+
+def test_the_last_healthy_instance_is_not_learnt_as_weather() -> None:
+    """With two AoA instances isolated, the third is checked only against the CMHE, whose wind
+    bounds come from the weather estimate: the estimate takes AoA from kinematics instead
+    (``min_healthy`` 2), so the third's runaway is not taken for a growing updraft and is
+    raised. Learning from it (``min_healthy`` 1, the behaviour before) lets the mean vertical
+    wind follow the fault and the runaway is never raised."""
+    raised, w_down = _thin_set_run(2)
+    assert 50.0 < raised < 80.0
+    kept = [w for t, w in w_down if 35.0 < t < raised]
+    assert len(kept) >= 10 and max(map(abs, kept)) < 0.5  # the true mean vertical wind: 0
+    raised_old, w_old = _thin_set_run(1)
+    assert math.isnan(raised_old)  # learnt as wind, never raised
+    learnt = [w for t, w in w_old if 35.0 < t < 110.0]
+    assert max(map(abs, learnt)) > 20.0  # a mean updraft that is aoa2's runaway

@@ -75,3 +75,33 @@ def test_hold_freezes_the_estimate() -> None:
     for k in range(round(WeatherConfig().hold_s * 1e6 / DT_US)):
         est.add(t0 + k * DT_US, np.array([40.0, 0.0, 0.0]))  # a faulty CAS's "wind"
     assert est.estimate.envelope.wind_mps == pytest.approx(2.0)
+
+
+def test_kinematic_air_by_hand() -> None:
+    """Level flight east at 100 m/s ground speed, pitch 5 deg, learnt mean wind 10 m/s from the
+    east and 2 m/s up: the air velocity is 110 m/s east and 2 m/s down relative to the air, so
+    in body axes alpha = 5 deg + atan(2 / 110) and V_t = hypot(110, 2)."""
+    est = WeatherEstimator(WeatherConfig(), WindEnvelope())
+    vel = np.array([0.0, 100.0, 0.0])
+    euler = np.array([0.0, math.radians(5.0), math.radians(90.0)])
+    assert est.kinematic_air(vel, euler) is None  # nothing learnt yet
+    est.add(0, np.array([0.0, -10.0, -2.0]))
+    kin = est.kinematic_air(vel, euler)
+    assert kin is not None
+    assert kin[0] == pytest.approx(math.radians(5.0) + math.atan2(2.0, 110.0), abs=1e-12)
+    assert kin[1] == pytest.approx(math.hypot(110.0, 2.0), abs=1e-9)
+
+
+def test_samples_without_gusts_move_the_mean_and_hold_the_turbulence() -> None:
+    """``gusts=False`` (a set down to its last instance, its quantity from kinematics): the mean
+    wind follows, the turbulence estimate stays what the checked sensors measured."""
+    rng = np.random.default_rng(8)
+    est = WeatherEstimator(WeatherConfig(sigma_margin=1.0), WindEnvelope())
+    env = _run(est, rng.normal(0.0, 2.0, (3000, 3)))
+    sigma = env.turbulence_sigma_mps
+    t0 = 3000 * DT_US
+    for k in range(600):  # 30 s of a steady 8 m/s wind, no gust information
+        e = est.add(t0 + k * DT_US, np.array([8.0, 0.0, 0.0]), gusts=False)
+        env = e if e is not None else env
+    assert env.turbulence_sigma_mps == sigma
+    assert env.wind_mps == pytest.approx(8.0, abs=0.5)
