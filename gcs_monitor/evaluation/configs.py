@@ -200,17 +200,23 @@ def without_actuators(cfg: MonitorConfig) -> MonitorConfig:
 
 def variant_config(variant: str, base: MonitorConfig | None = None, *,
                    lateral: bool = False, restart_peers: bool = False,
-                   equal_pair: bool = False) -> MonitorConfig:
+                   equal_pair: bool = False, weather_estimate: bool = True) -> MonitorConfig:
     """Air-data only (the IMU and yaw-rate families off: not part of these experiments), with
     Wan2018's wings-level model (eqs. 12-15) unless ``lateral`` asks for our bank and sideslip
     terms,
     Wan2018's per-instance windows unless ``restart_peers`` asks for our restart of the
     peers' windows on an isolation, and eq. 19's 1/J^2 weights for the last two instances
     unless ``equal_pair`` asks for our equal weights, whatever the monitor's defaults are:
-    the reproductions use the paper's scheme."""
+    the reproductions use the paper's scheme. ``weather_estimate`` False leaves the bounds to
+    the declared weather alone, as in the paper (the figure reproductions); the campaigns keep
+    the monitor's estimate on top of it (their results were measured so)."""
     cfg = _with_sets(base or MonitorConfig(), restart_peers=restart_peers,
                      equal_pair_weights=equal_pair)
     cfg = _with_filter(cfg, lateral_terms=lateral)
+    if not weather_estimate:
+        air = airdata_of(cfg)
+        cfg = cfg.with_family("airdata", weather_estimate=dataclasses.replace(
+            air.weather_estimate, enabled=False))
     return (cfg.with_family("airdata", estimator=variant).with_family("imu", enabled=False)
             .with_family("yaw_rate", enabled=False).with_family("actuators", enabled=False))
 

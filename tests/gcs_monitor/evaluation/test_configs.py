@@ -62,6 +62,10 @@ def test_variant_config_is_the_papers_scheme_whatever_the_defaults() -> None:
     assert ours.fdi.aoa.equal_pair_weights
     eq13 = configs.without_wind_accel(configs.variant_config("cmhe")).family("airdata")
     assert not eq13.filter.wind_accel_in_alpha and not eq13.filter.lateral_terms
+    # the figures' setting: the declared weather alone, as in Wan2018
+    assert paper.weather_estimate.enabled
+    declared_only = configs.variant_config("cmhe", weather_estimate=False).family("airdata")
+    assert not declared_only.weather_estimate.enabled
 
 
 def test_declared_weather_reaches_the_family() -> None:
