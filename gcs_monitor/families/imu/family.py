@@ -267,7 +267,7 @@ class ImuFamily:
                 if j.judging and j.notice is None:
                     verdict.events.append(self._notice(t_us, j, e, AlarmState.RAISED))
                 j.judging = False
-            misfit = self._inconsistent(t_us, e)
+            misfit = self._inconsistent(t_us, e, frozen=self._any_alarm(j))
             # Filter convergence: fault estimates are not judged during the warm-up after an
             # estimator (re)starts (its start-up transient is up to 10x its converged
             # fault-free level; docs/results.md, "Detection and isolation with imu_ts").
@@ -359,9 +359,18 @@ class ImuFamily:
                 events += sm.step(t, i in silent, fault_type=FaultType.NO_DATA, message=msg)
         return events
 
-    def _inconsistent(self, t_us: int, e: Estimate) -> str:
+    @staticmethod
+    def _any_alarm(j: _Judged) -> bool:
+        """Some channel of the estimator is confirmed faulty or in alarm."""
+        if j.bank is not None:
+            return any(j.bank.in_alarm(c) for c in range(len(j.monitors)))
+        return any(m.in_alarm for m in j.monitors)
+
+    def _inconsistent(self, t_us: int, e: Estimate, *, frozen: bool = False) -> str:
         """Why an estimator's innovations do not fit its noise model (empty when they do, or
-        when it does not report test ratios)."""
+        when it does not report test ratios). ``frozen``: a channel of the estimator is in
+        alarm, so its innovations carry a fault the filter may not have absorbed (the OTSEKF's
+        under several faults), not evidence against the noise model: the average holds."""
         lim = self.cfg.max_inconsistency
         tr = e.states.get("test_ratio")
         if lim <= 0.0 or tr is None:
@@ -370,7 +379,8 @@ class ImuFamily:
         if c is None:
             c = self._consistency[e.name] = _Consistency(
                 round(self.cfg.consistency_window_s * US_PER_S))
-        c.add(t_us, self._gate2 * sum(tr.tolist()) / len(tr))
+        if not frozen:
+            c.add(t_us, self._gate2 * sum(tr.tolist()) / len(tr))
         if c.full(t_us) and c.mean() > lim:
             return (f"{e.name}: innovations {c.mean():.0f}x what its noise model expects: "
                     "calibrate this airframe (gcs-monitor calibrate)")

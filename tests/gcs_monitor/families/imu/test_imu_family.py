@@ -183,3 +183,53 @@ def test_the_reference_allowance_never_clears_a_raised_alarm() -> None:
     assert len(raised) == 3 and max(raised) < 6_500_000  # acc x, y, z, before the allowance
     assert th[8_500_000] == acc_th  # frozen in alarm
     assert len(cleared) == 3 and min(cleared) > 10_000_000  # only after the fault ends
+
+
+class _FaultsAndInnovations:
+    """imu_ts-like estimator: gyro r faulty from 10 s with innovations 50x what the noise
+    model expects from then on (a fault the filter does not absorb), acc y faulty from 18 s."""
+
+    name = "imu_ts"
+
+    def __init__(self, thr_acc: float, thr_gyro: float, gate2: float) -> None:
+        self.thr_acc, self.thr_gyro, self.gate2 = thr_acc, thr_gyro, gate2
+
+    def reset(self) -> None:
+        pass
+
+    def step(self, frame: Frame) -> Estimate:
+        t = frame.t_us * 1e-6
+        faults = dict.fromkeys(FAULT_CHANNELS, 0.0)
+        faults[FAULT_CHANNELS[5]] = 10.0 * self.thr_gyro if t >= 10.0 else 0.0
+        faults[FAULT_CHANNELS[1]] = 10.0 * self.thr_acc if t >= 18.0 else 0.0
+        lam = 50.0 if t >= 10.0 else 1.0
+        states = {"test_ratio": np.full(6, lam / self.gate2)}
+        if frame.t_us == 0:
+            return Estimate(self.name, 0, faults=faults, states=states, reinit="start",
+                            reinit_warmup_s=WARMUP_S)
+        return Estimate(self.name, frame.t_us, faults=faults, states=states)
+
+
+def test_innovations_of_a_raised_fault_do_not_switch_judgement_off() -> None:
+    """The noise-model consistency check (``max_inconsistency``) reads innovations far above
+    the noise model as a model that does not fit the airframe and stops judging. Once a channel
+    of the estimator is in alarm, its innovations carry that fault: the average holds, and a
+    second fault that comes later is still raised (imu_detection_hosm: the f_Ay drift under
+    five raised faults was never raised before)."""
+    probe = ImuFamily(CFG, FamilyContext(vehicle=1, stale_after_s=0.5))
+    est = _FaultsAndInnovations(CFG.ts.fdi.acc.threshold, CFG.ts.fdi.gyro.threshold,
+                                probe._gate2)
+    p = VehiclePipeline(1, [ImuFamily(CFG, FamilyContext(vehicle=1, stale_after_s=0.5),
+                                      estimators=[(est, CFG.ts.fdi)])])
+    raised: dict[str, float] = {}
+    judged_late = []
+    for k in range(3000):
+        out = p.step(Frame(t_us=k * 10_000, imu=[None]))
+        for e in out.events:
+            if e.kind is AlarmKind.SENSOR_FAULT and e.state is AlarmState.RAISED:
+                raised.setdefault(str(e.channel), k * 0.01)
+        if k * 0.01 > 20.0:
+            judged_late += [f.judged for f in out.families if f.family == "imu"]
+    assert 10.0 < raised[str(FAULT_CHANNELS[5])] < 11.5
+    assert 18.0 < raised[str(FAULT_CHANNELS[1])] < 19.5
+    assert judged_late and all(judged_late)
