@@ -173,6 +173,14 @@ def _with_filter(cfg: MonitorConfig, **changes: Any) -> MonitorConfig:
     return cfg.with_family("airdata", filter=dataclasses.replace(air.filter, **changes))
 
 
+def with_weather_estimate(cfg: MonitorConfig, **changes: Any) -> MonitorConfig:
+    """``cfg`` with ``changes`` applied to the air-data weather estimate
+    (``[airdata.estimate]``)."""
+    air = airdata_of(cfg)
+    return cfg.with_family("airdata", weather_estimate=dataclasses.replace(
+        air.weather_estimate, **changes))
+
+
 def _with_sets(cfg: MonitorConfig, **changes: Any) -> MonitorConfig:
     """``cfg`` with ``changes`` applied to both air-data sets (``[airdata.fdi.aoa]``, ``.cas``)."""
     fdi = airdata_of(cfg).fdi
@@ -214,9 +222,7 @@ def variant_config(variant: str, base: MonitorConfig | None = None, *,
                      equal_pair_weights=equal_pair)
     cfg = _with_filter(cfg, lateral_terms=lateral)
     if not weather_estimate:
-        air = airdata_of(cfg)
-        cfg = cfg.with_family("airdata", weather_estimate=dataclasses.replace(
-            air.weather_estimate, enabled=False))
+        cfg = with_weather_estimate(cfg, enabled=False)
     return (cfg.with_family("airdata", estimator=variant).with_family("imu", enabled=False)
             .with_family("yaw_rate", enabled=False).with_family("actuators", enabled=False))
 

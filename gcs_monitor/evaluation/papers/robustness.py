@@ -29,7 +29,11 @@ from gcs_monitor.config import MonitorConfig
 from gcs_monitor.core.types import ChannelId
 from gcs_monitor.evaluation import scenarios
 from gcs_monitor.evaluation.campaign import run_records
-from gcs_monitor.evaluation.configs import family_alone, with_declared_weather
+from gcs_monitor.evaluation.configs import (
+    family_alone,
+    with_declared_weather,
+    with_weather_estimate,
+)
 from gcs_monitor.evaluation.records import METHOD_MEDIAN, METHOD_MONITOR, RunRecord
 from gcs_monitor.evaluation.report import METHOD_LABEL, fmt_fixed, md_table, write_csv
 from gcs_monitor.evaluation.runner import run_parallel
@@ -507,12 +511,6 @@ def triplex_actuators(out: Path, jobs: int = 2, quick: bool = False) -> str:
     return md
 
 
-def _min_healthy(cfg: MonitorConfig, n: int) -> MonitorConfig:
-    a = cfg.family("airdata")
-    return cfg.with_family("airdata", weather_estimate=dataclasses.replace(
-        a.weather_estimate, min_healthy=n))
-
-
 def wan2018_thin_sets(out: Path, jobs: int = 2, quick: bool = False) -> str:
     """The Wan2018 campaign's runs with two or more faults in one air-data set (the only runs
     that can leave a set with one healthy instance), the air-data family alone and no weather
@@ -552,8 +550,8 @@ def _thin_sets(title: str, scs: Sequence[Scenario], out: Path, jobs: int, name: 
     tables: dict[str, dict[str, list[MetricsRow]]] = {}
     recs: dict[str, list[RunRecord]] = {}
     for label, k in labels:
-        recs[label] = run_records(sub, _min_healthy(base, k), jobs, desc=label,
-                                  declare_weather=declare)
+        cfg = with_weather_estimate(base, min_healthy=k)
+        recs[label] = run_records(sub, cfg, jobs, desc=label, declare_weather=declare)
         tables[label] = tables_of(recs[label])
 
     def raises(r: RunRecord) -> list[str]:

@@ -169,14 +169,15 @@ class AirDataFamily:
                 and frame.gps_vel_ned_mps is not None and math.isfinite(frame.baro_alt_m)
                 and not (thin_aoa and thin_cas)):
             ssa = frame.ssa_rad if math.isfinite(frame.ssa_rad) else 0.0
-            tas = tas_from_cas(cas, frame.baro_alt_m)
-            if thin_aoa or thin_cas:
+            tas: float | None = tas_from_cas(cas, frame.baro_alt_m)
+            if thin_aoa or thin_cas:  # the set that cannot be checked is replaced by kinematics
                 kin = w.kinematic_air(frame.gps_vel_ned_mps, frame.euler_rad)
-                if kin is not None:  # the set that cannot be checked is replaced by kinematics
+                if kin is None:
+                    tas = None  # no mean wind learnt yet: no sample
+                else:
                     aoa = kin[0] if thin_aoa else aoa
                     tas = kin[1] if thin_cas else tas
-                    wind = wind_ned_tas(frame.gps_vel_ned_mps, frame.euler_rad, tas, aoa, ssa)
-            else:
+            if tas is not None:
                 wind = wind_ned_tas(frame.gps_vel_ned_mps, frame.euler_rad, tas, aoa, ssa)
         env = w.add(t, wind, gusts=not (thin_aoa or thin_cas))
         if env is None:

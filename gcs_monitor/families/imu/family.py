@@ -267,7 +267,7 @@ class ImuFamily:
                 if j.judging and j.notice is None:
                     verdict.events.append(self._notice(t_us, j, e, AlarmState.RAISED))
                 j.judging = False
-            misfit = self._inconsistent(t_us, e, frozen=self._any_alarm(j))
+            misfit = self._inconsistent(t_us, e, j)
             # Filter convergence: fault estimates are not judged during the warm-up after an
             # estimator (re)starts (its start-up transient is up to 10x its converged
             # fault-free level; docs/results.md, "Detection and isolation with imu_ts").
@@ -366,11 +366,11 @@ class ImuFamily:
             return any(j.bank.in_alarm(c) for c in range(len(j.monitors)))
         return any(m.in_alarm for m in j.monitors)
 
-    def _inconsistent(self, t_us: int, e: Estimate, *, frozen: bool = False) -> str:
+    def _inconsistent(self, t_us: int, e: Estimate, j: _Judged) -> str:
         """Why an estimator's innovations do not fit its noise model (empty when they do, or
-        when it does not report test ratios). ``frozen``: a channel of the estimator is in
-        alarm, so its innovations carry a fault the filter may not have absorbed (the OTSEKF's
-        under several faults), not evidence against the noise model: the average holds."""
+        when it does not report test ratios). While a channel of the estimator is in alarm its
+        innovations carry a fault the filter may not have absorbed (the OTSEKF's under several
+        faults), not evidence against the noise model: the average holds."""
         lim = self.cfg.max_inconsistency
         tr = e.states.get("test_ratio")
         if lim <= 0.0 or tr is None:
@@ -379,7 +379,7 @@ class ImuFamily:
         if c is None:
             c = self._consistency[e.name] = _Consistency(
                 round(self.cfg.consistency_window_s * US_PER_S))
-        if not frozen:
+        if not self._any_alarm(j):
             c.add(t_us, self._gate2 * sum(tr.tolist()) / len(tr))
         if c.full(t_us) and c.mean() > lim:
             return (f"{e.name}: innovations {c.mean():.0f}x what its noise model expects: "
